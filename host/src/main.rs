@@ -1,0 +1,2 @@
+//! The `strahl` command line.
+fn main() {}

@@ -1,0 +1,2 @@
+//! TCP transport for Strahl frames (filled in by the distribution issue).
+#![forbid(unsafe_code)]
