@@ -92,14 +92,23 @@ mod tests {
 
     #[test]
     fn ray_along_box_edge_hits() {
-        let b = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
+        let b = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
         let r = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::new(0.0, 0.0, 1.0));
-        assert_eq!(b.intersect(&r, inv(r.dir), f32::INFINITY), Some((5.0, 6.0 * (1.0 + 2.0 * gamma(3)))));
+        assert_eq!(
+            b.intersect(&r, inv(r.dir), f32::INFINITY),
+            Some((5.0, 6.0 * (1.0 + 2.0 * gamma(3))))
+        );
     }
 
     #[test]
     fn negative_zero_direction_is_parallel() {
-        let b = Aabb { min: Vec3::ZERO, max: Vec3::ONE };
+        let b = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ONE,
+        };
         let r = Ray::new(Vec3::new(0.5, 1.0, -5.0), Vec3::new(-0.0, 0.0, 1.0));
         assert!(b.intersect(&r, inv(r.dir), f32::INFINITY).is_some());
         let r = Ray::new(Vec3::new(1.5, 0.5, -5.0), Vec3::new(-0.0, 0.0, 1.0));
@@ -108,7 +117,10 @@ mod tests {
 
     #[test]
     fn flat_box_is_hit() {
-        let b = Aabb { min: Vec3::new(0.0, 0.0, 1.0), max: Vec3::new(1.0, 1.0, 1.0) };
+        let b = Aabb {
+            min: Vec3::new(0.0, 0.0, 1.0),
+            max: Vec3::new(1.0, 1.0, 1.0),
+        };
         let r = Ray::new(Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.0, 0.0, 1.0));
         assert!(b.intersect(&r, inv(r.dir), f32::INFINITY).is_some());
     }

@@ -23,7 +23,12 @@ pub struct Camera {
 
 impl Default for Camera {
     fn default() -> Self {
-        Camera { position: Vec3::ZERO, angle_x_deg: 0.0, angle_z_deg: 0.0, zoom: 1.0 }
+        Camera {
+            position: Vec3::ZERO,
+            angle_x_deg: 0.0,
+            angle_z_deg: 0.0,
+            zoom: 1.0,
+        }
     }
 }
 
@@ -50,7 +55,14 @@ impl CameraFrame {
         let forward = Vec3::new(-sz * cx, cz * cx, sx);
         let right = Vec3::new(cz, sz, 0.0);
         let up = Vec3::new(sz * sx, -cz * sx, cx);
-        CameraFrame { position: cam.position, forward: forward * cam.zoom, right, up, width, height }
+        CameraFrame {
+            position: cam.position,
+            forward: forward * cam.zoom,
+            right,
+            up,
+            width,
+            height,
+        }
     }
 
     /// The primary ray through the point `(x, y)` of the image in pixel units, `(0, 0)` being the
@@ -81,10 +93,27 @@ mod tests {
 
     #[test]
     fn positive_angles_look_up_and_turn_left() {
-        let up = CameraFrame::new(&Camera { angle_x_deg: 30.0, ..Camera::default() }, 10, 10);
+        let up = CameraFrame::new(
+            &Camera {
+                angle_x_deg: 30.0,
+                ..Camera::default()
+            },
+            10,
+            10,
+        );
         assert!(up.ray(5.0, 5.0).dir.z > 0.0);
-        let left = CameraFrame::new(&Camera { angle_z_deg: 90.0, ..Camera::default() }, 10, 10);
+        let left = CameraFrame::new(
+            &Camera {
+                angle_z_deg: 90.0,
+                ..Camera::default()
+            },
+            10,
+            10,
+        );
         let d = left.ray(5.0, 5.0).dir;
-        assert!(d.x < -0.999 && d.y.abs() < 1e-6, "turned 90° left looks along -X: {d:?}");
+        assert!(
+            d.x < -0.999 && d.y.abs() < 1e-6,
+            "turned 90° left looks along -X: {d:?}"
+        );
     }
 }

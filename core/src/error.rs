@@ -31,8 +31,14 @@ pub enum SceneError {
 impl fmt::Display for SceneError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SceneError::NoShader => write!(f, "the scene has no shader (_SHD); at least one is required"),
-            SceneError::NoLight => write!(f, "the scene has no light (_LIGHT); at least one is required"),
+            SceneError::NoShader => write!(
+                f,
+                "the scene has no shader (_SHD); at least one is required"
+            ),
+            SceneError::NoLight => write!(
+                f,
+                "the scene has no light (_LIGHT); at least one is required"
+            ),
             SceneError::PointIndexOutOfRange { triangle } => {
                 write!(f, "triangle {triangle} names a point that does not exist")
             }
@@ -45,7 +51,10 @@ impl fmt::Display for SceneError {
                 "the image size must be 1 to {} pixels per side",
                 crate::scene::MAX_IMAGE_SIDE
             ),
-            SceneError::TooLarge => write!(f, "the scene has more points or triangles than fit a u32 index"),
+            SceneError::TooLarge => write!(
+                f,
+                "the scene has more points or triangles than fit a u32 index"
+            ),
         }
     }
 }
@@ -64,7 +73,9 @@ impl fmt::Display for RenderError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             RenderError::LineOutOfRange => write!(f, "line number is not below the image height"),
-            RenderError::WrongBufferLength => write!(f, "pixel buffer length is not the image width"),
+            RenderError::WrongBufferLength => {
+                write!(f, "pixel buffer length is not the image width")
+            }
         }
     }
 }

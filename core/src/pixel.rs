@@ -23,7 +23,11 @@ impl Pixel {
     /// The pixel for a linear colour; channels outside `[0, 1]` are clamped.
     #[inline]
     pub fn from_color(c: Vec3) -> Self {
-        Pixel([quantize_channel(c.x), quantize_channel(c.y), quantize_channel(c.z)])
+        Pixel([
+            quantize_channel(c.x),
+            quantize_channel(c.y),
+            quantize_channel(c.z),
+        ])
     }
 
     /// The 8-bit channels written to the image file (round to nearest).
@@ -40,8 +44,14 @@ mod tests {
 
     #[test]
     fn clamps_and_rounds() {
-        assert_eq!(Pixel::from_color(Vec3::new(-1.0, 2.0, f32::NAN)).0, [0, 65535, 0]);
-        assert_eq!(Pixel::from_color(Vec3::new(0.5, 1.0, 0.0)).to_rgb8(), [128, 255, 0]);
+        assert_eq!(
+            Pixel::from_color(Vec3::new(-1.0, 2.0, f32::NAN)).0,
+            [0, 65535, 0]
+        );
+        assert_eq!(
+            Pixel::from_color(Vec3::new(0.5, 1.0, 0.0)).to_rgb8(),
+            [128, 255, 0]
+        );
         for v in 0..=255u8 {
             let p = Pixel::from_color(Vec3::splat(v as f32 / 255.0));
             assert_eq!(p.to_rgb8(), [v, v, v]);

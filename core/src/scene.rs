@@ -210,7 +210,8 @@ impl SceneDesc {
         if self.lights.is_empty() {
             return Err(SceneError::NoLight);
         }
-        if u32::try_from(self.points.len()).is_err() || u32::try_from(self.triangles.len()).is_err() {
+        if u32::try_from(self.points.len()).is_err() || u32::try_from(self.triangles.len()).is_err()
+        {
             return Err(SceneError::TooLarge);
         }
         let cam = &self.camera;

@@ -69,11 +69,22 @@ fn surface(scene: &Scene, ray: &Ray, hit: &Hit) -> Surface {
     } else if shading.dot(geometric) < 0.0 {
         shading = -shading;
     }
-    Surface { point, point_error, geometric, shading }
+    Surface {
+        point,
+        point_error,
+        geometric,
+        shading,
+    }
 }
 
 /// The local (Phong) colour at a surface seen from direction `view` (unit, towards the eye).
-fn local_color(scene: &Scene, s: &Surface, shader: usize, view: Vec3, counts: &mut RayCounts) -> Vec3 {
+fn local_color(
+    scene: &Scene,
+    s: &Surface,
+    shader: usize,
+    view: Vec3,
+    counts: &mut RayCounts,
+) -> Vec3 {
     let sh = &scene.shaders[shader];
     let mut color = sh.ambient;
     for light in &scene.lights {
@@ -91,13 +102,20 @@ fn local_color(scene: &Scene, s: &Surface, shader: usize, view: Vec3, counts: &m
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
-            if scene.octree.any_hit(&scene.triangle_points, &shadow, SHADOW_T_MAX) {
+            if scene
+                .octree
+                .any_hit(&scene.triangle_points, &shadow, SHADOW_T_MAX)
+            {
                 continue;
             }
         }
         let r = s.shading * (2.0 * n_dot_l) - l;
         let r_dot_v = r.dot(view);
-        let spec = if r_dot_v > 0.0 { libm::powf(r_dot_v, sh.shininess) } else { 0.0 };
+        let spec = if r_dot_v > 0.0 {
+            libm::powf(r_dot_v, sh.shininess)
+        } else {
+            0.0
+        };
         let term = sh.diffuse * n_dot_l + sh.specular * spec;
         color += light.color * light.amount * term;
     }
@@ -112,7 +130,10 @@ pub fn trace(scene: &Scene, primary: Ray, counts: &mut RayCounts) -> Vec3 {
     let mut color = Vec3::ZERO;
     let mut depth = 0u32;
     loop {
-        let Some(hit) = scene.octree.closest_hit(&scene.triangle_points, &ray, f32::INFINITY) else {
+        let Some(hit) = scene
+            .octree
+            .closest_hit(&scene.triangle_points, &ray, f32::INFINITY)
+        else {
             color += settings.background * weight;
             return color;
         };

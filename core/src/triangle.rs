@@ -111,6 +111,9 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
         return None;
     }
 
+    // Largest |z| in world units, before scaling: the shear added at most this much to x and y
+    // (|sx|, |sy| ≤ 1 because z is the largest direction component).
+    let max_z_world = p0z.abs().max(p1z.abs()).max(p2z.abs());
     p0z *= frame.sz;
     p1z *= frame.sz;
     p2z *= frame.sz;
@@ -132,8 +135,10 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
     let delta_z = gamma(3) * max_zt;
     let max_xt = p0x.abs().max(p1x.abs()).max(p2x.abs());
     let max_yt = p0y.abs().max(p1y.abs()).max(p2y.abs());
-    let delta_x = gamma(5) * (max_xt + max_zt);
-    let delta_y = gamma(5) * (max_yt + max_zt);
+    // pbrt-v4 writes `max_xt + max_zt` here, mixing world units with units of t; that is only
+    // right for directions of unit length. `max_z_world` keeps the bound right at any scale.
+    let delta_x = gamma(5) * (max_xt + max_z_world);
+    let delta_y = gamma(5) * (max_yt + max_z_world);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t =
@@ -170,7 +175,11 @@ mod tests {
     use super::*;
 
     fn tri() -> [Vec3; 3] {
-        [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 1.0, 0.0)]
+        [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(0.0, 1.0, 0.0),
+        ]
     }
 
     #[test]
@@ -185,7 +194,8 @@ mod tests {
     #[test]
     fn misses_outside_behind_and_beyond_t_max() {
         let down = Vec3::new(0.0, 0.0, -1.0);
-        let f = |o: Vec3, d: Vec3, tmax: f32| intersect(&RayFrame::new(&Ray::new(o, d)), &tri(), tmax);
+        let f =
+            |o: Vec3, d: Vec3, tmax: f32| intersect(&RayFrame::new(&Ray::new(o, d)), &tri(), tmax);
         assert!(f(Vec3::new(0.75, 0.75, 1.0), down, f32::INFINITY).is_none());
         assert!(f(Vec3::new(0.25, 0.25, -1.0), down, f32::INFINITY).is_none());
         assert!(f(Vec3::new(0.25, 0.25, 1.0), down, 0.5).is_none());
@@ -193,8 +203,34 @@ mod tests {
 
     #[test]
     fn degenerate_triangle_is_never_hit() {
-        let p = [Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0), Vec3::new(2.0, 2.0, 0.0)];
+        let p = [
+            Vec3::ZERO,
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(2.0, 2.0, 0.0),
+        ];
         let r = Ray::new(Vec3::new(1.0, 1.0, 1.0), Vec3::new(0.0, 0.0, -1.0));
         assert!(intersect(&RayFrame::new(&r), &p, f32::INFINITY).is_none());
+    }
+
+    #[test]
+    fn t_error_bound_is_scale_invariant() {
+        // Same geometry at every scale, direction length scaled too: t and its relative error
+        // bound must not change (pbrt's original bound grew a thousandfold at scale 1e-3).
+        let reference = {
+            let r = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(0.0, 0.0, -1.0));
+            intersect(&RayFrame::new(&r), &tri(), f32::INFINITY).expect("hit")
+        };
+        for s in [1e-6f32, 1e-3, 1e3, 1e6] {
+            let p = tri().map(|v| v * s);
+            let r = Ray::new(Vec3::new(0.2, 0.2, 1.0) * s, Vec3::new(0.0, 0.0, -1.0) * s);
+            let h = intersect(&RayFrame::new(&r), &p, f32::INFINITY).expect("hit at every scale");
+            assert!((h.t - 1.0).abs() < 1e-6, "scale {s}: t = {}", h.t);
+            assert!(
+                h.t_error < 2.0 * reference.t_error,
+                "scale {s}: bound {} vs {}",
+                h.t_error,
+                reference.t_error
+            );
+        }
     }
 }

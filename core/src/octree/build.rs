@@ -46,7 +46,10 @@ impl Octree {
             }
         }
         if bounds.is_empty() {
-            bounds = Aabb { min: Vec3::ZERO, max: Vec3::ZERO };
+            bounds = Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::ZERO,
+            };
         }
         let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
         let mut b = Builder {
@@ -67,7 +70,12 @@ impl Octree {
         b.stats.references = b.indices.len() as u32;
         b.stats.bytes = b.nodes.len() * core::mem::size_of::<Node>()
             + b.indices.len() * core::mem::size_of::<u32>();
-        Octree { nodes: b.nodes, indices: b.indices, bounds, stats: b.stats }
+        Octree {
+            nodes: b.nodes,
+            indices: b.indices,
+            bounds,
+            stats: b.stats,
+        }
     }
 }
 
@@ -75,7 +83,10 @@ impl Builder<'_> {
     fn make_leaf(&mut self, node: usize, tris: &[u32], depth: u32) {
         let first = self.indices.len() as u32;
         self.indices.extend_from_slice(tris);
-        self.nodes[node] = Node { first, count: tris.len() as u32 };
+        self.nodes[node] = Node {
+            first,
+            count: tris.len() as u32,
+        };
         self.stats.leaves += 1;
         if tris.is_empty() {
             self.stats.empty_leaves += 1;
@@ -93,7 +104,10 @@ impl Builder<'_> {
         let children = self.split(&cell, mid, &tris);
         let total: usize = children.iter().map(Vec::len).sum();
         let non_empty = children.iter().filter(|c| !c.is_empty()).count();
-        let separated = non_empty == 1 || children.iter().any(|c| !c.is_empty() && c.len() < tris.len());
+        let separated = non_empty == 1
+            || children
+                .iter()
+                .any(|c| !c.is_empty() && c.len() < tris.len());
         if !separated || total > MAX_DUPLICATION * tris.len() {
             self.make_leaf(node, &tris, depth);
             return;
@@ -101,7 +115,10 @@ impl Builder<'_> {
         drop(tris);
         let first = self.nodes.len();
         self.nodes.resize(first + 8, Node { first: 0, count: 0 });
-        self.nodes[node] = Node { first: first as u32, count: INTERIOR };
+        self.nodes[node] = Node {
+            first: first as u32,
+            count: INTERIOR,
+        };
         for (c, list) in children.into_iter().enumerate() {
             let child_cell = child_box(&cell, mid, c);
             self.build_node(first + c, child_cell, list, depth + 1);

@@ -37,7 +37,10 @@ pub struct OctreeParams {
 
 impl Default for OctreeParams {
     fn default() -> Self {
-        OctreeParams { max_depth: 16, max_leaf_triangles: 8 }
+        OctreeParams {
+            max_depth: 16,
+            max_leaf_triangles: 8,
+        }
     }
 }
 
@@ -142,7 +145,10 @@ pub fn brute_force_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -
         }
         if let Some(h) = intersect(&frame, p, t_max) {
             if closer(h.t, i as u32, &best) {
-                best = Some(Hit { triangle: i as u32, tri: h });
+                best = Some(Hit {
+                    triangle: i as u32,
+                    tri: h,
+                });
             }
         }
     }

@@ -48,15 +48,27 @@ mod tests {
     fn separates_and_touches() {
         let c = Vec3::ZERO;
         let h = Vec3::ONE;
-        let inside = [Vec3::new(-0.5, 0.0, 0.0), Vec3::new(0.5, 0.0, 0.0), Vec3::new(0.0, 0.5, 0.0)];
+        let inside = [
+            Vec3::new(-0.5, 0.0, 0.0),
+            Vec3::new(0.5, 0.0, 0.0),
+            Vec3::new(0.0, 0.5, 0.0),
+        ];
         assert!(triangle_box_overlap(c, h, &inside));
         let far = inside.map(|p| p + Vec3::new(5.0, 0.0, 0.0));
         assert!(!triangle_box_overlap(c, h, &far));
         // Touches the face x = 1 at a vertex.
-        let touch = [Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(2.0, 0.5, 0.0)];
+        let touch = [
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.0, 0.0),
+            Vec3::new(2.0, 0.5, 0.0),
+        ];
         assert!(triangle_box_overlap(c, h, &touch));
         // Its bounding box overlaps the corner, the triangle does not (diagonal edge axis).
-        let diag = [Vec3::new(2.5, 0.0, 0.0), Vec3::new(0.0, 2.5, 0.0), Vec3::new(2.5, 2.5, 0.0)];
+        let diag = [
+            Vec3::new(2.5, 0.0, 0.0),
+            Vec3::new(0.0, 2.5, 0.0),
+            Vec3::new(2.5, 2.5, 0.0),
+        ];
         assert!(!triangle_box_overlap(c, h, &diag));
     }
 }

@@ -34,7 +34,10 @@ impl Octree {
             for &i in indices {
                 if let Some(h) = intersect(&frame, &triangles[i as usize], t_max) {
                     if closer(h.t, i, &best) {
-                        best = Some(Hit { triangle: i, tri: h });
+                        best = Some(Hit {
+                            triangle: i,
+                            tri: h,
+                        });
                     }
                 }
             }
@@ -72,7 +75,12 @@ impl Octree {
             return;
         };
         let widen = 2.0 * gamma(3);
-        let mut stack = [Entry { node: 0, cell: self.bounds, t0: 0.0, t1: 0.0 }; STACK_SIZE];
+        let mut stack = [Entry {
+            node: 0,
+            cell: self.bounds,
+            t0: 0.0,
+            t1: 0.0,
+        }; STACK_SIZE];
         stack[0].t0 = t0 * (1.0 - widen);
         stack[0].t1 = t1;
         let mut top = 1usize;
@@ -136,7 +144,12 @@ impl Octree {
                 if child_node.is_leaf() && child_node.count == 0 {
                     continue;
                 }
-                stack[top] = Entry { node: index, cell: child_box(&e.cell, mid, c), t0: p0, t1: p1 };
+                stack[top] = Entry {
+                    node: index,
+                    cell: child_box(&e.cell, mid, c),
+                    t0: p0,
+                    t1: p1,
+                };
                 top += 1;
             }
         }

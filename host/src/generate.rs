@@ -1,0 +1,466 @@
+//! Procedural scenes: the demo room's `ROOM.txt`, the large benchmark scene, and meshes for tests.
+//!
+//! Everything here is deterministic (a fixed xorshift generator, no clock), so a generated file is
+//! the same on every machine. [`write_data_file`] writes a scene in the seed's data format, which
+//! is how the generated scenes reach users: `strahl generate room|large`.
+
+use glam::Vec3;
+use std::fmt::Write as _;
+use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
+
+/// A small deterministic random generator (xorshift64*), for scenes and tests.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    /// A generator from a seed (0 is replaced by a fixed non-zero value).
+    pub fn new(seed: u64) -> Self {
+        Rng(if seed == 0 {
+            0x9E37_79B9_7F4A_7C15
+        } else {
+            seed
+        })
+    }
+
+    /// The next 64 random bits.
+    pub fn next_u64(&mut self) -> u64 {
+        let mut x = self.0;
+        x ^= x >> 12;
+        x ^= x << 25;
+        x ^= x >> 27;
+        self.0 = x;
+        x.wrapping_mul(0x2545_F491_4F6C_DD1D)
+    }
+
+    /// A uniform `f32` in `[0, 1)`.
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    /// A uniform `f32` in `[lo, hi)`.
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.next_f32()
+    }
+
+    /// A random direction, uniform on the unit sphere.
+    pub fn direction(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+/// A triangle mesh under construction: points and triangles with one shader each.
+#[derive(Clone, Debug, Default)]
+pub struct MeshBuilder {
+    /// Vertex positions.
+    pub points: Vec<Vec3>,
+    /// Triangles indexing `points`.
+    pub triangles: Vec<TriangleDesc>,
+}
+
+impl MeshBuilder {
+    fn point(&mut self, p: Vec3) -> u32 {
+        self.points.push(p);
+        (self.points.len() - 1) as u32
+    }
+
+    fn tri(&mut self, a: u32, b: u32, c: u32, shader: u32) {
+        self.triangles.push(TriangleDesc {
+            points: [a, b, c],
+            shader,
+        });
+    }
+
+    /// A quad `a b c d` (counter-clockwise seen from the front) as two triangles.
+    pub fn quad(&mut self, corners: [Vec3; 4], shader: u32) {
+        let i = corners.map(|p| self.point(p));
+        self.tri(i[0], i[1], i[2], shader);
+        self.tri(i[0], i[2], i[3], shader);
+    }
+
+    /// A quad split into `n × n` cells (so lights and shadows have vertices to land between).
+    pub fn grid(&mut self, origin: Vec3, u: Vec3, v: Vec3, n: u32, shader: u32) {
+        let base = self.points.len() as u32;
+        for j in 0..=n {
+            for i in 0..=n {
+                self.point(origin + u * (i as f32 / n as f32) + v * (j as f32 / n as f32));
+            }
+        }
+        let row = n + 1;
+        for j in 0..n {
+            for i in 0..n {
+                let a = base + j * row + i;
+                self.tri(a, a + 1, a + row + 1, shader);
+                self.tri(a, a + row + 1, a + row, shader);
+            }
+        }
+    }
+
+    /// A closed UV sphere with `segments` around and `rings` from pole to pole. Each vertex is
+    /// moved by up to `jitter` (a fraction of the radius) along a random direction, which keeps
+    /// the mesh closed: neighbouring triangles still share their vertices.
+    pub fn sphere(
+        &mut self,
+        c: Vec3,
+        radius: f32,
+        segments: u32,
+        rings: u32,
+        jitter: f32,
+        shader: u32,
+        rng: &mut Rng,
+    ) {
+        let mut jit = |p: Vec3| p + rng.direction() * (jitter * radius * rng.next_f32());
+        let top = self.point(jit(c + Vec3::Z * radius));
+        let first = self.points.len() as u32;
+        for r in 1..rings {
+            let theta = core::f32::consts::PI * r as f32 / rings as f32;
+            for s in 0..segments {
+                let phi = 2.0 * core::f32::consts::PI * s as f32 / segments as f32;
+                let d = Vec3::new(
+                    libm::sinf(theta) * libm::cosf(phi),
+                    libm::sinf(theta) * libm::sinf(phi),
+                    libm::cosf(theta),
+                );
+                self.point(jit(c + d * radius));
+            }
+        }
+        let bottom = self.point(jit(c - Vec3::Z * radius));
+        let at = |r: u32, s: u32| first + (r - 1) * segments + (s % segments);
+        for s in 0..segments {
+            self.tri(top, at(1, s), at(1, s + 1), shader);
+            for r in 1..rings - 1 {
+                self.tri(at(r, s), at(r + 1, s), at(r + 1, s + 1), shader);
+                self.tri(at(r, s), at(r + 1, s + 1), at(r, s + 1), shader);
+            }
+            self.tri(bottom, at(rings - 1, s + 1), at(rings - 1, s), shader);
+        }
+    }
+
+    /// A closed torus around the Z axis through `c`.
+    pub fn torus(
+        &mut self,
+        c: Vec3,
+        major: f32,
+        minor: f32,
+        segments: u32,
+        sides: u32,
+        shader: u32,
+    ) {
+        let base = self.points.len() as u32;
+        for i in 0..segments {
+            let u = 2.0 * core::f32::consts::PI * i as f32 / segments as f32;
+            for j in 0..sides {
+                let v = 2.0 * core::f32::consts::PI * j as f32 / sides as f32;
+                let r = major + minor * libm::cosf(v);
+                self.point(
+                    c + Vec3::new(r * libm::cosf(u), r * libm::sinf(u), minor * libm::sinf(v)),
+                );
+            }
+        }
+        let at = |i: u32, j: u32| base + (i % segments) * sides + (j % sides);
+        for i in 0..segments {
+            for j in 0..sides {
+                self.tri(at(i, j), at(i + 1, j), at(i + 1, j + 1), shader);
+                self.tri(at(i, j), at(i + 1, j + 1), at(i, j + 1), shader);
+            }
+        }
+    }
+}
+
+fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflection: f32) -> Shader {
+    Shader {
+        ambient,
+        diffuse,
+        specular,
+        shininess,
+        reflection,
+    }
+}
+
+/// The demo room for the seed's example camera (0, −100, 25), tilt −15°, zoom 1.5: a floor and
+/// three walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
+/// of which casts no shadow.
+pub fn room() -> SceneDesc {
+    let mut m = MeshBuilder::default();
+    let mut rng = Rng::new(7);
+    let (floor, wall, side, sphere, torus, mirror) = (0, 1, 2, 3, 4, 5);
+    let (x0, x1, y0, y1, z1) = (-70.0, 70.0, -60.0, 70.0, 80.0);
+    m.grid(
+        Vec3::new(x0, y0, 0.0),
+        Vec3::new(x1 - x0, 0.0, 0.0),
+        Vec3::new(0.0, y1 - y0, 0.0),
+        8,
+        floor,
+    );
+    m.grid(
+        Vec3::new(x0, y1, 0.0),
+        Vec3::new(x1 - x0, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, z1),
+        8,
+        wall,
+    );
+    m.grid(
+        Vec3::new(x0, y0, 0.0),
+        Vec3::new(0.0, y1 - y0, 0.0),
+        Vec3::new(0.0, 0.0, z1),
+        8,
+        side,
+    );
+    m.grid(
+        Vec3::new(x1, y1, 0.0),
+        Vec3::new(0.0, y0 - y1, 0.0),
+        Vec3::new(0.0, 0.0, z1),
+        8,
+        side,
+    );
+    // A mirror standing in front of the back wall.
+    m.quad(
+        [
+            Vec3::new(-5.0, 66.0, 4.0),
+            Vec3::new(55.0, 66.0, 4.0),
+            Vec3::new(55.0, 66.0, 54.0),
+            Vec3::new(-5.0, 66.0, 54.0),
+        ],
+        mirror,
+    );
+    m.sphere(
+        Vec3::new(-28.0, 15.0, 18.0),
+        18.0,
+        48,
+        24,
+        0.0,
+        sphere,
+        &mut rng,
+    );
+    m.torus(Vec3::new(26.0, 0.0, 7.0), 15.0, 6.0, 64, 24, torus);
+    let shaders = vec![
+        shader(
+            Vec3::splat(0.06),
+            Vec3::new(0.55, 0.52, 0.48),
+            Vec3::splat(0.05),
+            8.0,
+            0.0,
+        ),
+        shader(
+            Vec3::splat(0.05),
+            Vec3::new(0.35, 0.45, 0.6),
+            Vec3::ZERO,
+            1.0,
+            0.0,
+        ),
+        shader(
+            Vec3::splat(0.05),
+            Vec3::new(0.6, 0.35, 0.3),
+            Vec3::ZERO,
+            1.0,
+            0.0,
+        ),
+        shader(
+            Vec3::new(0.04, 0.01, 0.01),
+            Vec3::new(0.75, 0.12, 0.1),
+            Vec3::splat(0.6),
+            40.0,
+            0.15,
+        ),
+        shader(
+            Vec3::new(0.01, 0.03, 0.01),
+            Vec3::new(0.2, 0.6, 0.25),
+            Vec3::splat(0.5),
+            25.0,
+            0.0,
+        ),
+        shader(
+            Vec3::splat(0.02),
+            Vec3::splat(0.05),
+            Vec3::splat(0.3),
+            60.0,
+            0.85,
+        ),
+    ];
+    let lights = vec![
+        Light {
+            position: Vec3::new(-40.0, -40.0, 75.0),
+            color: Vec3::new(1.0, 0.95, 0.85),
+            amount: 0.8,
+            casts_shadows: true,
+        },
+        Light {
+            position: Vec3::new(50.0, -70.0, 40.0),
+            color: Vec3::new(0.7, 0.8, 1.0),
+            amount: 0.35,
+            casts_shadows: false,
+        },
+    ];
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders,
+        lights,
+        ..SceneDesc::default()
+    }
+}
+
+/// A large scene of at least `min_triangles` triangles: a fractal-noise terrain under a ring of
+/// smooth spheres, lit by two lights, for performance work.
+pub fn large(min_triangles: u32) -> SceneDesc {
+    let mut m = MeshBuilder::default();
+    let mut rng = Rng::new(42);
+    // Spheres take a fifth, the terrain the rest.
+    let spheres = 12u32;
+    let per_sphere = (min_triangles / 5 / spheres).max(64);
+    let seg = ((per_sphere / 2) as f32).sqrt().ceil() as u32 * 2;
+    for k in 0..spheres {
+        let a = 2.0 * core::f32::consts::PI * k as f32 / spheres as f32;
+        let c = Vec3::new(60.0 * libm::cosf(a), 60.0 * libm::sinf(a) + 40.0, 22.0);
+        m.sphere(c, 12.0, seg, seg / 2, 0.0, 1 + (k % 2), &mut rng);
+    }
+    let remaining = min_triangles.saturating_sub(m.triangles.len() as u32);
+    let n = (((remaining as f32) / 2.0).sqrt().ceil() as u32).max(2);
+    let size = 300.0;
+    let base = m.points.len() as u32;
+    let height = |x: f32, y: f32| {
+        let mut h = 0.0;
+        let mut f = 0.02;
+        let mut amp = 6.0;
+        for _ in 0..4 {
+            h += amp * libm::sinf(x * f + 1.3) * libm::cosf(y * f * 1.1 + 0.7);
+            f *= 2.3;
+            amp *= 0.45;
+        }
+        h
+    };
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = -size / 2.0 + size * i as f32 / n as f32;
+            let y = -size / 2.0 + 40.0 + size * j as f32 / n as f32;
+            m.points.push(Vec3::new(x, y, height(x, y)));
+        }
+    }
+    let row = n + 1;
+    for j in 0..n {
+        for i in 0..n {
+            let a = base + j * row + i;
+            m.triangles.push(TriangleDesc {
+                points: [a, a + 1, a + row + 1],
+                shader: 0,
+            });
+            m.triangles.push(TriangleDesc {
+                points: [a, a + row + 1, a + row],
+                shader: 0,
+            });
+        }
+    }
+    let shaders = vec![
+        shader(
+            Vec3::splat(0.05),
+            Vec3::new(0.45, 0.5, 0.35),
+            Vec3::splat(0.1),
+            10.0,
+            0.0,
+        ),
+        shader(
+            Vec3::splat(0.04),
+            Vec3::new(0.7, 0.3, 0.2),
+            Vec3::splat(0.6),
+            40.0,
+            0.3,
+        ),
+        shader(
+            Vec3::splat(0.04),
+            Vec3::new(0.2, 0.3, 0.7),
+            Vec3::splat(0.6),
+            40.0,
+            0.0,
+        ),
+    ];
+    let lights = vec![
+        Light {
+            position: Vec3::new(-100.0, -150.0, 200.0),
+            color: Vec3::ONE,
+            amount: 0.8,
+            casts_shadows: true,
+        },
+        Light {
+            position: Vec3::new(150.0, -50.0, 80.0),
+            color: Vec3::new(0.6, 0.7, 1.0),
+            amount: 0.3,
+            casts_shadows: false,
+        },
+    ];
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders,
+        lights,
+        ..SceneDesc::default()
+    }
+}
+
+/// Writes the geometry, shaders and lights of `desc` in the seed's data format (0-based indices),
+/// with `header` as `REM` lines. Numbers are written so they read back to the same `f32`.
+pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
+    let mut s = String::new();
+    for line in header.lines() {
+        let _ = writeln!(s, "REM {line}");
+    }
+    let _ = writeln!(
+        s,
+        "_OBJ {} {} {} {}",
+        desc.points.len(),
+        desc.triangles.len(),
+        desc.shaders.len(),
+        desc.lights.len()
+    );
+    for sh in &desc.shaders {
+        let _ = writeln!(
+            s,
+            "_SHD {} {} {} {} {} {} {} {} {} {} {}",
+            sh.ambient.x,
+            sh.ambient.y,
+            sh.ambient.z,
+            sh.diffuse.x,
+            sh.diffuse.y,
+            sh.diffuse.z,
+            sh.specular.x,
+            sh.specular.y,
+            sh.specular.z,
+            sh.shininess,
+            sh.reflection
+        );
+    }
+    for l in &desc.lights {
+        let _ = writeln!(
+            s,
+            "_LIGHT {} {} {} {} {} {} {} {}",
+            l.position.x,
+            l.position.y,
+            l.position.z,
+            l.color.x,
+            l.color.y,
+            l.color.z,
+            l.amount,
+            u8::from(l.casts_shadows)
+        );
+    }
+    for p in &desc.points {
+        let _ = writeln!(s, "_PT {} {} {}", p.x, p.y, p.z);
+    }
+    for t in &desc.triangles {
+        let _ = writeln!(
+            s,
+            "_TR {} {} {} {}",
+            t.points[0], t.points[1], t.points[2], t.shader
+        );
+    }
+    s.push_str("QUIT\n");
+    s
+}
