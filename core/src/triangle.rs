@@ -126,7 +126,8 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
     }
     let inv_det = 1.0 / det;
     let t = t_scaled * inv_det;
-    if !(t < t_max) {
+    // NaN-safe: anything but a definite `t < t_max` is a miss.
+    if t.partial_cmp(&t_max) != Some(core::cmp::Ordering::Less) {
         return None;
     }
 

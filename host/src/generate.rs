@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 use std::fmt::Write as _;
+use strahl_core::camera::Camera;
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// A small deterministic random generator (xorshift64*), for scenes and tests.
@@ -108,6 +109,7 @@ impl MeshBuilder {
     /// A closed UV sphere with `segments` around and `rings` from pole to pole. Each vertex is
     /// moved by up to `jitter` (a fraction of the radius) along a random direction, which keeps
     /// the mesh closed: neighbouring triangles still share their vertices.
+    #[allow(clippy::too_many_arguments)]
     pub fn sphere(
         &mut self,
         c: Vec3,
@@ -396,11 +398,18 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             casts_shadows: false,
         },
     ];
+    let camera = Camera {
+        position: Vec3::new(0.0, -160.0, 60.0),
+        angle_x_deg: -18.0,
+        angle_z_deg: 0.0,
+        zoom: 1.2,
+    };
     SceneDesc {
         points: m.points,
         triangles: m.triangles,
         shaders,
         lights,
+        camera,
         ..SceneDesc::default()
     }
 }

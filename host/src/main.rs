@@ -1,2 +1,33 @@
-//! The `strahl` command line.
-fn main() {}
+//! The `strahl` command line: parses the arguments and runs the subcommand (`strahl_host::cli`).
+
+use clap::Parser as _;
+use std::process::ExitCode;
+use strahl_host::cli::{run, Cli};
+
+/// The error and its causes, joined by `: `, leaving out a cause whose text the message already
+/// ends with (some errors repeat their source in their own message).
+fn error_chain(err: &anyhow::Error) -> String {
+    let mut msg = String::new();
+    for cause in err.chain() {
+        let text = cause.to_string();
+        if msg.is_empty() {
+            msg = text;
+        } else if !msg.ends_with(&text) {
+            msg.push_str(": ");
+            msg.push_str(&text);
+        }
+    }
+    msg
+}
+
+fn main() -> ExitCode {
+    // clap prints usage errors itself and exits with code 2 (0 for --help and --version).
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {}", error_chain(&err));
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -10,7 +10,7 @@ use glam::Vec3;
 
 /// Children whose references add up to more than this many times their parent's are not made:
 /// the triangles overlap each other too much for splitting to separate them.
-const MAX_DUPLICATION: usize = 4;
+const MAX_DUPLICATION: usize = 2;
 
 struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],

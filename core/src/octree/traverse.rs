@@ -8,7 +8,7 @@
 use super::build::child_box;
 use super::{closer, Hit, Octree, MAX_DEPTH_LIMIT};
 use crate::aabb::Aabb;
-use crate::float::gamma;
+use crate::float::{gamma, MACHINE_EPSILON};
 use crate::ray::Ray;
 use crate::triangle::{intersect, RayFrame};
 use glam::Vec3;
@@ -30,14 +30,18 @@ impl Octree {
     pub fn closest_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
         let frame = RayFrame::new(ray);
         let mut best: Option<Hit> = None;
+        // Triangle tests are bounded by the best hit so far, loosened by four roundings so that
+        // only hits that lose the comparison anyway are cut early (the winner stays exact).
+        let mut bound = t_max;
         self.walk(ray, t_max, |indices| {
             for &i in indices {
-                if let Some(h) = intersect(&frame, &triangles[i as usize], t_max) {
+                if let Some(h) = intersect(&frame, &triangles[i as usize], bound) {
                     if closer(h.t, i, &best) {
                         best = Some(Hit {
                             triangle: i,
                             tri: h,
                         });
+                        bound = bound.min(h.t * (1.0 + 4.0 * MACHINE_EPSILON));
                     }
                 }
             }

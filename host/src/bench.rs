@@ -1,0 +1,177 @@
+//! `strahl bench`: the performance figures of issue 2, measured in one run on this machine.
+//!
+//! On the generated large scene (at least 100,000 triangles) it reports the octree build time,
+//! octree bytes per triangle, primary rays per second on one core with shading off (closest hit
+//! only), and a full render (Phong, shadows, reflections) on one core for comparison. Each figure
+//! is the median of several runs; ratios are against figures from the same run.
+
+use crate::generate;
+use std::time::{Duration, Instant};
+use strahl_core::octree::{Octree, OctreeParams};
+use strahl_core::pixel::Pixel;
+use strahl_core::render::render_line;
+use strahl_core::scene::{RenderSettings, Scene};
+
+/// What `strahl bench` measures and how often.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchOptions {
+    /// Triangles in the generated scene (at least).
+    pub triangles: u32,
+    /// Image size of the ray-throughput runs (square).
+    pub size: u32,
+    /// Runs per figure; the median is reported.
+    pub runs: usize,
+    /// Octree limits.
+    pub octree: OctreeParams,
+}
+
+impl Default for BenchOptions {
+    fn default() -> Self {
+        BenchOptions {
+            triangles: 100_000,
+            size: 512,
+            runs: 5,
+            octree: OctreeParams::default(),
+        }
+    }
+}
+
+/// The measured figures.
+#[derive(Clone, Debug)]
+pub struct BenchReport {
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Median octree build time.
+    pub build: Duration,
+    /// Octree statistics of the last build.
+    pub stats: strahl_core::octree::OctreeStats,
+    /// Median primary rays per second, one core, closest hit only.
+    pub primary_rays_per_s: f64,
+    /// Median rays (all kinds) per second of a full render on one core.
+    pub shaded_rays_per_s: f64,
+    /// Median wall time of the full render on one core.
+    pub shaded_time: Duration,
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v[v.len() / 2]
+}
+
+/// Runs the benchmark.
+pub fn run(opts: &BenchOptions) -> BenchReport {
+    let mut desc = generate::large(opts.triangles);
+    desc.settings = RenderSettings {
+        width: opts.size,
+        height: opts.size,
+        ..RenderSettings::default()
+    };
+    let tris: Vec<[glam::Vec3; 3]> = desc
+        .triangles
+        .iter()
+        .map(|t| t.points.map(|i| desc.points[i as usize]))
+        .collect();
+    let runs = opts.runs.max(1);
+
+    let mut builds = Vec::with_capacity(runs);
+    let mut octree = None;
+    for _ in 0..runs {
+        let start = Instant::now();
+        let tree = Octree::build(&tris, &opts.octree);
+        builds.push(start.elapsed());
+        octree = Some(tree);
+    }
+    let stats = *octree
+        .as_ref()
+        .map(Octree::stats)
+        .unwrap_or(&Default::default());
+
+    let scene = match Scene::build(&desc, &opts.octree) {
+        Ok(s) => s,
+        Err(e) => unreachable!("the generated scene is valid: {e}"),
+    };
+    let (w, h) = (opts.size, opts.size);
+    let mut primary = Vec::with_capacity(runs);
+    let mut hits = 0u64;
+    for _ in 0..runs {
+        hits = 0;
+        let start = Instant::now();
+        for y in 0..h {
+            for x in 0..w {
+                let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+                hits += u64::from(
+                    scene
+                        .octree
+                        .closest_hit(&scene.triangle_points, &ray, f32::INFINITY)
+                        .is_some(),
+                );
+            }
+        }
+        primary.push(start.elapsed());
+    }
+    std::hint::black_box(hits);
+
+    let mut shaded = Vec::with_capacity(runs);
+    let mut rays = 0u64;
+    let mut line = vec![Pixel::default(); w as usize];
+    for _ in 0..runs {
+        rays = 0;
+        let start = Instant::now();
+        for y in 0..h {
+            if let Ok(c) = render_line(&scene, y, &mut line) {
+                rays += c.total();
+            }
+        }
+        shaded.push(start.elapsed());
+    }
+    let shaded_time = median(shaded);
+    BenchReport {
+        triangles: tris.len(),
+        build: median(builds),
+        stats,
+        primary_rays_per_s: (w * h) as f64 / median(primary).as_secs_f64(),
+        shaded_rays_per_s: rays as f64 / shaded_time.as_secs_f64(),
+        shaded_time,
+    }
+}
+
+impl std::fmt::Display for BenchReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.stats;
+        let per_million = self.build.as_secs_f64() * 1e6 / self.triangles as f64;
+        writeln!(
+            f,
+            "scene: {} triangles (generated: strahl generate large)",
+            self.triangles
+        )?;
+        writeln!(
+            f,
+            "octree build: {:.3} s median ({:.3} s per million triangles)",
+            self.build.as_secs_f64(),
+            per_million
+        )?;
+        writeln!(
+            f,
+            "octree: {} nodes, {} leaves ({} empty), depth {}, {:.1} triangles per leaf (max {}), {} bytes = {:.1} bytes per triangle",
+            s.nodes,
+            s.leaves,
+            s.empty_leaves,
+            s.depth,
+            s.mean_leaf_triangles(),
+            s.max_leaf_triangles,
+            s.bytes,
+            s.bytes_per_triangle()
+        )?;
+        writeln!(
+            f,
+            "primary rays, shading off, 1 core: {:.2} M rays/s median",
+            self.primary_rays_per_s / 1e6
+        )?;
+        write!(
+            f,
+            "full render (Phong, shadows, reflections), 1 core: {:.3} s, {:.2} M rays/s median",
+            self.shaded_time.as_secs_f64(),
+            self.shaded_rays_per_s / 1e6
+        )
+    }
+}

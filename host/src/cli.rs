@@ -1,0 +1,263 @@
+//! The `strahl` command line: its arguments ([`Cli`]) and the `render` subcommand.
+//!
+//! Each subcommand is one variant of [`Command`] holding its own argument struct; its run function
+//! lives with it (here for `render`, in its own module for the others), and [`run`] dispatches.
+//! To add a subcommand: add a variant `Name(crate::name::NameArgs)` with a doc comment (its help
+//! line) and a match arm calling `crate::name::run(args)`.
+
+use crate::load::{load_config_scene, Overrides};
+use crate::local::render_local;
+use crate::output::{check_output_path, write_image};
+use crate::progress::Progress;
+use crate::summary::RenderSummary;
+use anyhow::anyhow;
+use clap::{Args, Parser, Subcommand};
+use std::num::NonZeroUsize;
+use std::path::PathBuf;
+use std::time::Instant;
+use strahl_core::error::SceneError;
+use strahl_core::octree::OctreeParams;
+use strahl_core::scene::{Scene, MAX_IMAGE_SIDE};
+
+/// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
+#[derive(Debug, Parser)]
+#[command(name = "strahl", version, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Render a scene (a configuration file and the data file it names) to an image.
+    Render(RenderArgs),
+    // Further subcommands (`generate`, `bench`, ...) go here, each with its own module.
+}
+
+/// The most worker threads `--workers` accepts.
+pub const MAX_WORKERS: u32 = 1024;
+
+/// Arguments of `strahl render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// The configuration file (the seed's raytracer.cfg); file names in it are relative to its
+    /// folder.
+    #[arg(value_name = "CONFIG")]
+    pub config: PathBuf,
+
+    /// Write the image here instead of $IMAGE_NAME (relative to the current folder); the
+    /// extension chooses the format: .bmp or .png.
+    #[arg(short, long, value_name = "FILE")]
+    pub output: Option<PathBuf>,
+
+    /// Image width in pixels, instead of $IMAGE_WIDTH.
+    #[arg(long, value_name = "N", value_parser = image_side())]
+    pub width: Option<u32>,
+
+    /// Image height in pixels, instead of $IMAGE_HEIGHT.
+    #[arg(long, value_name = "N", value_parser = image_side())]
+    pub height: Option<u32>,
+
+    /// Shadows on or off (1 or 0 also accepted), instead of $SHADOWS.
+    #[arg(long, value_name = "on|off", value_parser = parse_switch)]
+    pub shadows: Option<bool>,
+
+    /// Reflections on or off (1 or 0 also accepted), instead of $REFLECTIONS.
+    #[arg(long, value_name = "on|off", value_parser = parse_switch)]
+    pub reflections: Option<bool>,
+
+    /// Worker threads in this process, 1 to 1024 [default: the number of CPUs].
+    #[arg(long, value_name = "N", value_parser = worker_count())]
+    pub workers: Option<u32>,
+
+    /// Whether the data file's _TR point and shader indices count from 0 or 1, instead of
+    /// $INDEX_BASE [default: 0].
+    #[arg(long, value_name = "0|1", value_parser = clap::value_parser!(u32).range(0..=1))]
+    pub index_base: Option<u32>,
+
+    /// Print nothing on stderr unless there is an error (no progress bar, no summary).
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// The parser of `--width` and `--height`: 1 to [`MAX_IMAGE_SIDE`].
+fn image_side() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(1..=i64::from(MAX_IMAGE_SIDE))
+}
+
+/// The parser of `--workers`: 1 to [`MAX_WORKERS`].
+fn worker_count() -> clap::builder::RangedI64ValueParser<u32> {
+    clap::value_parser!(u32).range(1..=i64::from(MAX_WORKERS))
+}
+
+/// Parses an on/off switch: `on` or `1` is true, `off` or `0` is false (exactly these words).
+///
+/// # Errors
+/// A message listing the accepted words.
+pub fn parse_switch(s: &str) -> Result<bool, String> {
+    match s {
+        "on" | "1" => Ok(true),
+        "off" | "0" => Ok(false),
+        _ => Err("expected `on` or `off` (or `1` or `0`)".to_string()),
+    }
+}
+
+/// Runs the subcommand `cli` names.
+///
+/// # Errors
+/// Whatever the subcommand reports; the messages are meant for the user.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => run_render(&args),
+    }
+}
+
+impl RenderArgs {
+    /// The settings that replace the configuration file's.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            output: self.output.clone(),
+            width: self.width,
+            height: self.height,
+            shadows: self.shadows,
+            reflections: self.reflections,
+            index_base: self.index_base,
+        }
+    }
+
+    /// The number of worker threads: `--workers`, or the number of CPUs.
+    pub fn worker_count(&self) -> usize {
+        match self.workers {
+            Some(n) => (n as usize).max(1),
+            None => std::thread::available_parallelism().map_or(1, NonZeroUsize::get),
+        }
+    }
+}
+
+/// `strahl render`: load, check the output path, build the octree, render with local worker
+/// threads, write the image, print the summary.
+///
+/// # Errors
+/// A message naming the file (and line) at fault, or the output path that cannot be written.
+pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let loaded = load_config_scene(&args.config, &args.overrides())?;
+    let load = start.elapsed();
+    // Fail before the long part if the image cannot be written.
+    check_output_path(&loaded.output)?;
+
+    let build_start = Instant::now();
+    let scene = Scene::build(&loaded.desc, &OctreeParams::default()).map_err(|e| {
+        let file = match e {
+            SceneError::BadImageSize => &loaded.config_path,
+            _ => &loaded.data_path,
+        };
+        anyhow!("{}: {e}", file.display())
+    })?;
+    let octree_build = build_start.elapsed();
+
+    let workers = args.worker_count();
+    let settings = scene.settings;
+    let progress = Progress::new(settings.height, args.quiet);
+    let render_start = Instant::now();
+    let image = render_local(&scene, workers, &|_, rays| progress.line_done(rays))?;
+    let render = render_start.elapsed();
+    progress.finish();
+
+    write_image(
+        &loaded.output,
+        settings.width,
+        settings.height,
+        &image.pixels,
+    )?;
+
+    if !args.quiet {
+        let summary = RenderSummary {
+            width: settings.width,
+            height: settings.height,
+            total: start.elapsed(),
+            load,
+            octree_build,
+            render,
+            triangles: scene.triangle_points.len(),
+            octree: *scene.octree.stats(),
+            rays: image.rays,
+            workers: workers.min(settings.height as usize),
+            output: loaded.output.clone(),
+        };
+        eprintln!("{summary}");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory as _;
+
+    #[test]
+    fn cli_is_consistent() {
+        Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn switches() {
+        assert_eq!(parse_switch("on"), Ok(true));
+        assert_eq!(parse_switch("1"), Ok(true));
+        assert_eq!(parse_switch("off"), Ok(false));
+        assert_eq!(parse_switch("0"), Ok(false));
+        assert!(parse_switch("yes").is_err());
+        assert!(parse_switch("ON").is_err());
+        assert!(parse_switch("").is_err());
+    }
+
+    #[test]
+    fn parses_render() -> anyhow::Result<()> {
+        let cli = Cli::try_parse_from([
+            "strahl",
+            "render",
+            "a.cfg",
+            "-o",
+            "x.png",
+            "--width",
+            "7",
+            "--shadows",
+            "off",
+            "--reflections",
+            "1",
+            "--workers",
+            "3",
+            "--index-base",
+            "1",
+            "--quiet",
+        ])?;
+        let a = match cli.command {
+            Command::Render(a) => a,
+            #[allow(unreachable_patterns)]
+            _ => anyhow::bail!("parsed as another subcommand"),
+        };
+        let o = a.overrides();
+        assert_eq!(a.config, PathBuf::from("a.cfg"));
+        assert_eq!(o.output, Some(PathBuf::from("x.png")));
+        assert_eq!((o.width, o.height), (Some(7), None));
+        assert_eq!(
+            (o.shadows, o.reflections, o.index_base),
+            (Some(false), Some(true), Some(1))
+        );
+        assert_eq!(a.worker_count(), 3);
+        assert!(a.quiet);
+        for bad in [
+            &["--workers", "0"][..],
+            &["--index-base", "2"],
+            &["--width", "0"],
+            &["--shadows", "maybe"],
+        ] {
+            let mut argv = vec!["strahl", "render", "a.cfg"];
+            argv.extend_from_slice(bad);
+            assert!(Cli::try_parse_from(argv).is_err(), "{bad:?}");
+        }
+        Ok(())
+    }
+}

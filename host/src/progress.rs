@@ -1,0 +1,119 @@
+//! The progress bar on stderr: lines done of all lines, rays per second and the time left.
+//!
+//! It is drawn only when stderr is a terminal and the user did not ask for quiet; otherwise
+//! [`Progress`] does nothing, so logs and pipes never see control characters.
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal as _;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+use strahl_core::shade::RayCounts;
+
+/// Progress of a render, safe to update from many worker threads.
+#[derive(Debug)]
+pub struct Progress {
+    bar: Option<ProgressBar>,
+    rays: AtomicU64,
+}
+
+/// `rays` traced in `secs` seconds, as a short rate such as `2.15 M rays/s`.
+pub fn format_ray_rate(rays: u64, secs: f64) -> String {
+    if secs <= 0.0 || !secs.is_finite() {
+        return "- rays/s".to_string();
+    }
+    let rate = rays as f64 / secs;
+    if rate >= 1e9 {
+        format!("{:.2} G rays/s", rate / 1e9)
+    } else if rate >= 1e6 {
+        format!("{:.2} M rays/s", rate / 1e6)
+    } else if rate >= 1e3 {
+        format!("{:.1} k rays/s", rate / 1e3)
+    } else {
+        format!("{rate:.0} rays/s")
+    }
+}
+
+impl Progress {
+    /// A progress display for `lines` image lines: a bar on stderr if stderr is a terminal and
+    /// `quiet` is false, nothing otherwise.
+    pub fn new(lines: u32, quiet: bool) -> Self {
+        let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+            let bar =
+                ProgressBar::with_draw_target(Some(u64::from(lines)), ProgressDrawTarget::stderr());
+            let style = ProgressStyle::with_template(
+                "{elapsed:>4} [{wide_bar}] {pos}/{len} lines, {msg}, ETA {eta}",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> ");
+            bar.set_style(style);
+            bar.set_message("- rays/s");
+            bar.enable_steady_tick(Duration::from_millis(250));
+            bar
+        });
+        Progress {
+            bar,
+            rays: AtomicU64::new(0),
+        }
+    }
+
+    /// A progress display that never draws.
+    pub fn hidden() -> Self {
+        Progress {
+            bar: None,
+            rays: AtomicU64::new(0),
+        }
+    }
+
+    /// Whether a bar is drawn.
+    pub fn is_visible(&self) -> bool {
+        self.bar.is_some()
+    }
+
+    /// Records one finished line that traced `rays`.
+    pub fn line_done(&self, rays: RayCounts) {
+        let total = self.rays.fetch_add(rays.total(), Ordering::Relaxed) + rays.total();
+        if let Some(bar) = &self.bar {
+            bar.inc(1);
+            bar.set_message(format_ray_rate(total, bar.elapsed().as_secs_f64()));
+        }
+    }
+
+    /// Removes the bar from the terminal, so that the summary line follows a clean prompt.
+    pub fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Drop for Progress {
+    fn drop(&mut self) {
+        // An error path must not leave a half-drawn bar in front of the error message.
+        self.finish();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates() {
+        assert_eq!(format_ray_rate(2_150_000, 1.0), "2.15 M rays/s");
+        assert_eq!(format_ray_rate(1500, 1.0), "1.5 k rays/s");
+        assert_eq!(format_ray_rate(12, 2.0), "6 rays/s");
+        assert_eq!(format_ray_rate(12, 0.0), "- rays/s");
+    }
+
+    #[test]
+    fn quiet_never_draws() {
+        let p = Progress::new(10, true);
+        assert!(!p.is_visible());
+        p.line_done(RayCounts {
+            primary: 3,
+            shadow: 2,
+            reflection: 1,
+        });
+        assert_eq!(p.rays.load(Ordering::Relaxed), 6);
+    }
+}

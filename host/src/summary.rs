@@ -1,0 +1,119 @@
+//! The one line a render prints at the end: size, times, scene and octree, rays, output.
+
+use crate::progress::format_ray_rate;
+use std::fmt;
+use std::path::PathBuf;
+use std::time::Duration;
+use strahl_core::octree::OctreeStats;
+use strahl_core::shade::RayCounts;
+
+/// Everything the closing line of a render reports.
+#[derive(Clone, Debug)]
+pub struct RenderSummary {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Wall time from start to the written file.
+    pub total: Duration,
+    /// Time spent reading the configuration and data files (part of `total`).
+    pub load: Duration,
+    /// Time spent building the octree (part of `total`).
+    pub octree_build: Duration,
+    /// Time spent tracing rays (part of `total`).
+    pub render: Duration,
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// The octree's statistics.
+    pub octree: OctreeStats,
+    /// Rays traced.
+    pub rays: RayCounts,
+    /// Worker threads used.
+    pub workers: usize,
+    /// The image file written.
+    pub output: PathBuf,
+}
+
+/// `bytes` as a short human size: `512 B`, `3.4 KiB`, `1.2 MiB`, `2.0 GiB`.
+pub fn format_bytes(bytes: usize) -> String {
+    const KIB: f64 = 1024.0;
+    let b = bytes as f64;
+    if b < KIB {
+        format!("{bytes} B")
+    } else if b < KIB * KIB {
+        format!("{:.1} KiB", b / KIB)
+    } else if b < KIB * KIB * KIB {
+        format!("{:.1} MiB", b / (KIB * KIB))
+    } else {
+        format!("{:.1} GiB", b / (KIB * KIB * KIB))
+    }
+}
+
+impl fmt::Display for RenderSummary {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let o = &self.octree;
+        let r = &self.rays;
+        write!(
+            f,
+            "rendered {}x{} in {:.2} s (load {:.2} s, octree {:.2} s, tracing {:.2} s): {} \
+             triangles, octree {} nodes / {} (depth {}), rays {} primary, {} shadow, {} \
+             reflection ({}), {} worker{} -> {}",
+            self.width,
+            self.height,
+            self.total.as_secs_f64(),
+            self.load.as_secs_f64(),
+            self.octree_build.as_secs_f64(),
+            self.render.as_secs_f64(),
+            self.triangles,
+            o.nodes,
+            format_bytes(o.bytes),
+            o.depth,
+            r.primary,
+            r.shadow,
+            r.reflection,
+            format_ray_rate(r.total(), self.render.as_secs_f64()),
+            self.workers,
+            if self.workers == 1 { "" } else { "s" },
+            self.output.display(),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line() {
+        let s = RenderSummary {
+            width: 640,
+            height: 480,
+            total: Duration::from_millis(1230),
+            load: Duration::from_millis(170),
+            octree_build: Duration::from_millis(50),
+            render: Duration::from_millis(1000),
+            triangles: 12345,
+            octree: OctreeStats {
+                nodes: 4567,
+                bytes: 1_258_291,
+                depth: 9,
+                ..OctreeStats::default()
+            },
+            rays: RayCounts {
+                primary: 307_200,
+                shadow: 123,
+                reflection: 45,
+            },
+            workers: 2,
+            output: PathBuf::from("output.bmp"),
+        };
+        assert_eq!(
+            s.to_string(),
+            "rendered 640x480 in 1.23 s (load 0.17 s, octree 0.05 s, tracing 1.00 s): 12345 \
+             triangles, octree 4567 nodes / 1.2 MiB (depth 9), rays 307200 primary, 123 shadow, \
+             45 reflection (307.4 k rays/s), 2 workers -> output.bmp"
+        );
+        assert_eq!(format_bytes(100), "100 B");
+        assert_eq!(format_bytes(2048), "2.0 KiB");
+    }
+}

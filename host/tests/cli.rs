@@ -1,0 +1,323 @@
+//! End-to-end tests of `strahl render`, running the built binary on tiny scenes in temporary
+//! folders.
+
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// A wall facing the camera, a small triangle in front of it that shadows it, one shader each and
+/// a shadow-casting light off to the side.
+const DATA: &str = "\
+REM a wall and an occluder
+_PT -20 5 -15
+_PT 20 5 -15
+_PT 0 5 20
+_PT -2 2 -2
+_PT 2 2 -2
+_PT 0 2 2
+_SHD 0.05 0.05 0.05  0.8 0.8 0.8  0.3 0.3 0.3  10 0
+_SHD 0.1 0 0  0.9 0.2 0.1  0.5 0.5 0.5  20 0.3
+_TR 0 1 2 0
+_TR 3 4 5 1
+_LIGHT 8 -6 4  1 1 1  1 1
+";
+
+/// The configuration: a 32×24 image `out.bmp`, camera 10 units in front of the origin.
+const CONFIG: &str = "\
+$IMAGE_NAME out.bmp
+$IMAGE_WIDTH 32
+$IMAGE_HEIGHT 24
+$INPUT_DATA room.txt
+$CAM_POS_Y -10
+";
+
+type TestResult = Result<(), Box<dyn std::error::Error>>;
+
+/// A temporary folder holding `scene.cfg` and `room.txt`.
+fn scene_dir(config: &str, data: &str) -> std::io::Result<tempfile::TempDir> {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(dir.path().join("scene.cfg"), config)?;
+    std::fs::write(dir.path().join("room.txt"), data)?;
+    Ok(dir)
+}
+
+/// Runs `strahl` with `args` in folder `cwd`.
+fn strahl(cwd: &Path, args: &[&str]) -> std::io::Result<Output> {
+    Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .current_dir(cwd)
+        .args(args)
+        .output()
+}
+
+/// `strahl render scene.cfg ARGS...` in `dir`.
+fn render(dir: &Path, args: &[&str]) -> std::io::Result<Output> {
+    let mut all = vec!["render", "scene.cfg"];
+    all.extend_from_slice(args);
+    strahl(dir, &all)
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// Fails with the process's stderr unless it exited with code 0.
+fn assert_success(out: &Output) {
+    assert!(
+        out.status.success(),
+        "exit {:?}, stderr:\n{}",
+        out.status.code(),
+        stderr(out)
+    );
+}
+
+/// The names of the entries in `dir`.
+fn listing(dir: &Path) -> std::io::Result<BTreeSet<PathBuf>> {
+    std::fs::read_dir(dir)?
+        .map(|e| e.map(|e| PathBuf::from(e.file_name())))
+        .collect()
+}
+
+fn names(list: &[&str]) -> BTreeSet<PathBuf> {
+    list.iter().map(PathBuf::from).collect()
+}
+
+#[test]
+fn renders_bmp_of_configured_size_next_to_config() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    // Run from elsewhere: $IMAGE_NAME and $INPUT_DATA are relative to the configuration file.
+    let elsewhere = tempfile::tempdir()?;
+    let cfg = dir.path().join("scene.cfg");
+    let out = strahl(elsewhere.path(), &["render", cfg.to_str().ok_or("path")?])?;
+    assert_success(&out);
+    assert!(listing(elsewhere.path())?.is_empty());
+    assert_eq!(
+        listing(dir.path())?,
+        names(&["scene.cfg", "room.txt", "out.bmp"])
+    );
+    let path = dir.path().join("out.bmp");
+    let bytes = std::fs::read(&path)?;
+    assert_eq!(&bytes[..2], b"BM");
+    assert_eq!(
+        u16::from_le_bytes([bytes[28], bytes[29]]),
+        24,
+        "24 bits per pixel"
+    );
+    assert_eq!(
+        image::ImageFormat::from_path(&path)?,
+        image::ImageFormat::Bmp
+    );
+    let img = image::open(&path)?.to_rgb8();
+    assert_eq!(img.dimensions(), (32, 24));
+    let distinct: BTreeSet<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 3, "the scene is visible: {distinct:?}");
+    Ok(())
+}
+
+#[test]
+fn output_option_writes_png_and_size_options_override() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let out = render(
+        dir.path(),
+        &["-o", "x.PNG", "--width", "20", "--height", "10"],
+    )?;
+    assert_success(&out);
+    assert_eq!(
+        listing(dir.path())?,
+        names(&["scene.cfg", "room.txt", "x.PNG"])
+    );
+    let bytes = std::fs::read(dir.path().join("x.PNG"))?;
+    assert_eq!(image::guess_format(&bytes)?, image::ImageFormat::Png);
+    let img = image::load_from_memory(&bytes)?;
+    assert_eq!((img.width(), img.height()), (20, 10));
+    Ok(())
+}
+
+#[test]
+fn worker_count_does_not_change_the_image() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let mut files = Vec::new();
+    for workers in ["1", "3", "7"] {
+        let name = format!("w{workers}.bmp");
+        let out = render(
+            dir.path(),
+            &["--workers", workers, "-o", &name, "--width", "41"],
+        )?;
+        assert_success(&out);
+        files.push(std::fs::read(dir.path().join(&name))?);
+    }
+    assert_eq!(files[0], files[1]);
+    assert_eq!(files[0], files[2]);
+    Ok(())
+}
+
+#[test]
+fn shadows_off_changes_pixels() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    assert_success(&render(dir.path(), &["-o", "on.bmp", "--shadows", "on"])?);
+    assert_success(&render(dir.path(), &["-o", "off.bmp", "--shadows", "off"])?);
+    assert_success(&render(dir.path(), &["-o", "default.bmp"])?);
+    let on = std::fs::read(dir.path().join("on.bmp"))?;
+    let off = std::fs::read(dir.path().join("off.bmp"))?;
+    let default = std::fs::read(dir.path().join("default.bmp"))?;
+    assert_ne!(on, off, "the occluder's shadow disappears");
+    assert_eq!(on, default, "shadows are on by default");
+    Ok(())
+}
+
+#[test]
+fn reflections_switch_changes_pixels() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    assert_success(&render(
+        dir.path(),
+        &["-o", "on.bmp", "--reflections", "1"],
+    )?);
+    assert_success(&render(
+        dir.path(),
+        &["-o", "off.bmp", "--reflections", "0"],
+    )?);
+    let on = std::fs::read(dir.path().join("on.bmp"))?;
+    let off = std::fs::read(dir.path().join("off.bmp"))?;
+    assert_ne!(on, off);
+    Ok(())
+}
+
+#[test]
+fn bad_data_file_names_the_line_and_writes_nothing() -> TestResult {
+    let data = DATA.replace("_PT 2 2 -2", "_PT 2 oops -2");
+    let dir = scene_dir(CONFIG, &data)?;
+    let before = listing(dir.path())?;
+    let out = render(dir.path(), &[])?;
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.starts_with("error: "), "{err}");
+    assert!(err.contains("room.txt:6:"), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert_eq!(
+        listing(dir.path())?,
+        before,
+        "no image and no temporary file"
+    );
+    Ok(())
+}
+
+#[test]
+fn bad_triangle_index_base_is_reported() -> TestResult {
+    // With 1-based indices, `_TR 0 1 2 0` names point 0, which does not exist.
+    let dir = scene_dir(CONFIG, DATA)?;
+    let before = listing(dir.path())?;
+    let out = render(dir.path(), &["--index-base", "1"])?;
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("room.txt:"), "{}", stderr(&out));
+    assert_eq!(listing(dir.path())?, before);
+    Ok(())
+}
+
+#[test]
+fn missing_output_folder_fails_before_rendering() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let before = listing(dir.path())?;
+    // A huge image: if the check came after rendering, this test would take very long.
+    let out = render(
+        dir.path(),
+        &[
+            "-o",
+            "nowhere/x.bmp",
+            "--width",
+            "30000",
+            "--height",
+            "30000",
+        ],
+    )?;
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.contains("nowhere"), "{err}");
+    assert!(!err.contains("rendered"), "{err}");
+    assert_eq!(listing(dir.path())?, before);
+    Ok(())
+}
+
+#[test]
+fn unknown_image_extension_fails_before_rendering() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let before = listing(dir.path())?;
+    let out = render(
+        dir.path(),
+        &["-o", "x.jpg", "--width", "30000", "--height", "30000"],
+    )?;
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.contains("x.jpg") && err.contains(".png"), "{err}");
+    assert_eq!(listing(dir.path())?, before);
+    Ok(())
+}
+
+#[test]
+fn failed_run_keeps_an_existing_image() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    std::fs::write(dir.path().join("out.bmp"), b"old")?;
+    std::fs::write(dir.path().join("room.txt"), "_PT 1 2\n")?;
+    let out = render(dir.path(), &[])?;
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(std::fs::read(dir.path().join("out.bmp"))?, b"old");
+    Ok(())
+}
+
+#[test]
+fn usage_errors_exit_2() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    for args in [
+        &["--workers", "0"][..],
+        &["--workers", "x"],
+        &["--shadows", "yes"],
+        &["--index-base", "2"],
+        &["--width", "0"],
+        &["--bogus"],
+    ] {
+        let out = render(dir.path(), args)?;
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
+        assert!(!stderr(&out).is_empty());
+    }
+    let out = strahl(dir.path(), &["render"])?;
+    assert_eq!(out.status.code(), Some(2));
+    assert_eq!(listing(dir.path())?, names(&["scene.cfg", "room.txt"]));
+    Ok(())
+}
+
+#[test]
+fn missing_config_is_an_error_naming_it() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = strahl(dir.path(), &["render", "nope.cfg"])?;
+    assert_eq!(out.status.code(), Some(1));
+    let err = stderr(&out);
+    assert!(err.starts_with("error: nope.cfg"), "{err}");
+    Ok(())
+}
+
+#[test]
+fn quiet_prints_nothing() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let out = render(dir.path(), &["--quiet"])?;
+    assert_success(&out);
+    assert!(out.stderr.is_empty(), "{}", stderr(&out));
+    assert!(out.stdout.is_empty());
+    assert!(dir.path().join("out.bmp").is_file());
+    Ok(())
+}
+
+#[test]
+fn summary_names_size_rays_and_output() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let out = render(dir.path(), &["--workers", "2", "--reflections", "off"])?;
+    assert_success(&out);
+    assert!(out.stdout.is_empty());
+    let err = stderr(&out);
+    // stderr is not a terminal here: no progress bar, just the summary line.
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("rendered 32x24 in "), "{err}");
+    assert!(err.contains("2 triangles"), "{err}");
+    assert!(err.contains(&format!("rays {} primary", 32 * 24)), "{err}");
+    assert!(err.contains(" shadow, 0 reflection"), "{err}");
+    assert!(err.contains("2 workers"), "{err}");
+    assert!(err.trim_end().ends_with("out.bmp"), "{err}");
+    Ok(())
+}
