@@ -175,3 +175,46 @@ impl std::fmt::Display for BenchReport {
         )
     }
 }
+
+/// Arguments of `strahl bench`.
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Least number of triangles of the generated scene.
+    #[arg(long, value_name = "N", default_value_t = 100_000,
+          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
+    pub triangles: u32,
+    /// Side of the square image rendered for the ray figures.
+    #[arg(long, value_name = "PIXELS", default_value_t = 512,
+          value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub size: u32,
+    /// Runs per figure (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Octree depth limit.
+    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_depth,
+          value_parser = clap::value_parser!(u32).range(0..=20))]
+    pub octree_depth: u32,
+    /// Octree leaf size: cells with at most this many triangles are not split.
+    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_leaf_triangles,
+          value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub octree_leaf: u32,
+}
+
+/// Runs `strahl bench` and prints its report on stdout.
+///
+/// # Errors
+/// None today; the signature matches the other subcommands.
+pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
+    let opts = BenchOptions {
+        triangles: args.triangles,
+        size: args.size,
+        runs: args.runs as usize,
+        octree: OctreeParams {
+            max_depth: args.octree_depth,
+            max_leaf_triangles: args.octree_leaf,
+        },
+    };
+    println!("{}", run(&opts));
+    Ok(())
+}

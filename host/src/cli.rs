@@ -33,7 +33,10 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (a configuration file and the data file it names) to an image.
     Render(RenderArgs),
-    // Further subcommands (`generate`, `bench`, ...) go here, each with its own module.
+    /// Write a generated scene: the demo room's ROOM.txt or the large benchmark scene.
+    Generate(crate::generate::GenerateArgs),
+    /// Measure octree build time and size, and rays per second, on the large generated scene.
+    Bench(crate::bench::BenchArgs),
 }
 
 /// The most worker threads `--workers` accepts.
@@ -111,6 +114,8 @@ pub fn parse_switch(s: &str) -> Result<bool, String> {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => run_render(&args),
+        Command::Generate(args) => crate::generate::run(&args),
+        Command::Bench(args) => crate::bench::run_command(&args),
     }
 }
 

@@ -189,13 +189,14 @@ fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflecti
 }
 
 /// The demo room for the seed's example camera (0, −100, 25), tilt −15°, zoom 1.5: a floor and
-/// three walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
+/// four walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
 /// of which casts no shadow.
 pub fn room() -> SceneDesc {
     let mut m = MeshBuilder::default();
     let mut rng = Rng::new(7);
     let (floor, wall, side, sphere, torus, mirror) = (0, 1, 2, 3, 4, 5);
-    let (x0, x1, y0, y1, z1) = (-70.0, 70.0, -60.0, 70.0, 80.0);
+    // The room reaches behind the camera (y = −100), closed by a front wall the mirror shows.
+    let (x0, x1, y0, y1, z1) = (-70.0, 70.0, -130.0, 70.0, 80.0);
     m.grid(
         Vec3::new(x0, y0, 0.0),
         Vec3::new(x1 - x0, 0.0, 0.0),
@@ -223,6 +224,13 @@ pub fn room() -> SceneDesc {
         Vec3::new(0.0, 0.0, z1),
         8,
         side,
+    );
+    m.grid(
+        Vec3::new(x1, y0, 0.0),
+        Vec3::new(x0 - x1, 0.0, 0.0),
+        Vec3::new(0.0, 0.0, z1),
+        8,
+        wall,
     );
     // A mirror standing in front of the back wall.
     m.quad(
@@ -472,4 +480,98 @@ pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
     }
     s.push_str("QUIT\n");
     s
+}
+
+/// The text of `scenes/room/ROOM.txt`, exactly as `strahl generate room` writes it.
+pub fn room_data_file() -> String {
+    write_data_file(
+        &room(),
+        "Strahl demo room, written by `strahl generate room`.\n\
+         Floor and four walls, a smooth sphere, a smooth torus, a mirror, two lights\n\
+         (the second casts no shadow). For the seed's example raytracer.cfg.",
+    )
+}
+
+/// Which scene `strahl generate` writes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKind {
+    /// The demo room's `ROOM.txt` (for the seed's example `raytracer.cfg`).
+    Room,
+    /// The large benchmark scene: `LARGE.txt` and a `raytracer.cfg` for it.
+    Large,
+}
+
+/// Arguments of `strahl generate`.
+#[derive(Debug, clap::Args)]
+pub struct GenerateArgs {
+    /// The scene to write.
+    #[arg(value_enum)]
+    pub kind: SceneKind,
+    /// The folder to write into (it must exist).
+    #[arg(short, long, value_name = "DIR", default_value = ".")]
+    pub output: std::path::PathBuf,
+    /// Least number of triangles of the large scene.
+    #[arg(long, value_name = "N", default_value_t = 100_000,
+          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
+    pub triangles: u32,
+}
+
+/// Writes `text` to `path` atomically (see [`crate::output::write_atomically`]).
+fn write_atomically(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
+    use anyhow::Context as _;
+    use std::io::Write as _;
+    crate::output::write_atomically(path, |w| {
+        w.write_all(text.as_bytes())
+            .with_context(|| format!("{}: cannot write", path.display()))
+    })
+}
+
+/// Runs `strahl generate`: writes the chosen scene into the output folder.
+///
+/// # Errors
+/// A missing or unwritable output folder.
+pub fn run(args: &GenerateArgs) -> anyhow::Result<()> {
+    let dir = &args.output;
+    if !dir.is_dir() {
+        anyhow::bail!("{}: no such folder", dir.display());
+    }
+    match args.kind {
+        SceneKind::Room => {
+            write_atomically(&dir.join("ROOM.txt"), &room_data_file())?;
+            eprintln!("wrote {}", dir.join("ROOM.txt").display());
+        }
+        SceneKind::Large => {
+            let desc = large(args.triangles);
+            let header = format!(
+                "Strahl large benchmark scene, written by `strahl generate large --triangles {}`.\n\
+                 {} triangles: fractal terrain and a ring of twelve smooth spheres.",
+                args.triangles,
+                desc.triangles.len()
+            );
+            write_atomically(&dir.join("LARGE.txt"), &write_data_file(&desc, &header))?;
+            let c = &desc.camera;
+            let cfg = format!(
+                "REM Strahl large benchmark scene ({} triangles)\n\
+                 $IMAGE_NAME large.bmp\n$IMAGE_WIDTH 1024\n$IMAGE_HEIGHT 768\n\
+                 $INPUT_DATA LARGE.txt\n$SHADOWS 1\n$REFLECTIONS 1\n\
+                 $COLOR_BG_R 0.55\n$COLOR_BG_G 0.7\n$COLOR_BG_B 0.9\n\
+                 $CAM_POS_X {}\n$CAM_POS_Y {}\n$CAM_POS_Z {}\n\
+                 $CAM_POS_ANGLE_X {}\n$CAM_POS_ANGLE_Z {}\n$CAM_POS_ZOOM {}\nQUIT\n",
+                desc.triangles.len(),
+                c.position.x,
+                c.position.y,
+                c.position.z,
+                c.angle_x_deg,
+                c.angle_z_deg,
+                c.zoom
+            );
+            write_atomically(&dir.join("raytracer.cfg"), &cfg)?;
+            eprintln!(
+                "wrote {} and {}",
+                dir.join("LARGE.txt").display(),
+                dir.join("raytracer.cfg").display()
+            );
+        }
+    }
+    Ok(())
 }

@@ -116,6 +116,22 @@ pub fn to_rgb_image(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result
 pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result<()> {
     let kind = check_output_path(path)?;
     let img = to_rgb_image(width, height, pixels)?;
+    write_atomically(path, |w| {
+        img.write_to(w, kind.format())
+            .with_context(|| format!("{}: cannot write the image", path.display()))
+    })
+}
+
+/// Writes a file through a temporary file in its folder that is renamed into place at the end:
+/// readers never see a partial file, and on any error nothing is left at `path` (an existing
+/// file there stays as it was).
+///
+/// # Errors
+/// Any error of `write`, or an I/O error naming `path`.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let dir = destination_folder(path);
     let mut builder = tempfile::Builder::new();
     builder.prefix(".strahl-").suffix(".tmp");
@@ -134,17 +150,16 @@ pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[Pixel]) -> an
     })?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
-        img.write_to(&mut w, kind.format())
-            .with_context(|| format!("{}: cannot write the image", path.display()))?;
+        write(&mut w)?;
         w.flush()
-            .with_context(|| format!("{}: cannot write the image", path.display()))?;
+            .with_context(|| format!("{}: cannot write", path.display()))?;
     }
     tmp.as_file()
         .sync_all()
-        .with_context(|| format!("{}: cannot write the image", path.display()))?;
+        .with_context(|| format!("{}: cannot write", path.display()))?;
     tmp.persist(path).map_err(|e| e.error).with_context(|| {
         format!(
-            "{}: cannot move the finished image into place",
+            "{}: cannot move the finished file into place",
             path.display()
         )
     })?;
