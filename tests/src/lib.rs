@@ -69,6 +69,12 @@ pub fn boundary_grid(n: u32) -> MeshBuilder {
 }
 
 /// The box around a triangle set.
+///
+/// ```
+/// use glam::Vec3;
+/// let tris = [[Vec3::ZERO, Vec3::X, Vec3::new(0.0, 2.0, -1.0)]];
+/// assert_eq!(strahl_tests::bounds(&tris), (Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 0.0)));
+/// ```
 pub fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);

@@ -21,6 +21,10 @@ struct Builder<'a> {
     margin: f32,
     nodes: Vec<Node>,
     indices: Vec<u32>,
+    /// Scratch: the triangle lists of the cells being built, parents before children.
+    refs: Vec<u32>,
+    /// Scratch: per triangle of the cell being split, the children it touches (bit per child).
+    masks: Vec<u8>,
     stats: OctreeStats,
 }
 
@@ -58,14 +62,19 @@ impl Octree {
             params,
             margin: magnitude * gamma(16),
             nodes: alloc::vec![Node { first: 0, count: 0 }],
-            indices: Vec::new(),
+            indices: Vec::with_capacity(2 * filed.len()),
+            refs: Vec::with_capacity(4 * filed.len()),
+            masks: Vec::with_capacity(filed.len()),
             stats: OctreeStats {
                 triangles: triangles.len() as u32,
                 filed_triangles: filed.len() as u32,
                 ..OctreeStats::default()
             },
         };
-        b.build_node(0, bounds, filed, 0);
+        let n = filed.len();
+        b.refs.extend_from_slice(&filed);
+        drop(filed);
+        b.build_node(0, bounds, (0, n), 0);
         b.stats.nodes = b.nodes.len() as u32;
         b.stats.references = b.indices.len() as u32;
         b.stats.bytes = b.nodes.len() * core::mem::size_of::<Node>()
@@ -80,77 +89,119 @@ impl Octree {
 }
 
 impl Builder<'_> {
-    fn make_leaf(&mut self, node: usize, tris: &[u32], depth: u32) {
+    fn make_leaf(&mut self, node: usize, range: (usize, usize), depth: u32) {
         let first = self.indices.len() as u32;
-        self.indices.extend_from_slice(tris);
-        self.nodes[node] = Node {
-            first,
-            count: tris.len() as u32,
-        };
+        let count = (range.1 - range.0) as u32;
+        self.indices.extend_from_slice(&self.refs[range.0..range.1]);
+        self.nodes[node] = Node { first, count };
         self.stats.leaves += 1;
-        if tris.is_empty() {
+        if count == 0 {
             self.stats.empty_leaves += 1;
         }
         self.stats.depth = self.stats.depth.max(depth);
-        self.stats.max_leaf_triangles = self.stats.max_leaf_triangles.max(tris.len() as u32);
+        self.stats.max_leaf_triangles = self.stats.max_leaf_triangles.max(count);
     }
 
-    fn build_node(&mut self, node: usize, cell: Aabb, tris: Vec<u32>, depth: u32) {
-        if tris.len() <= self.params.max_leaf_triangles as usize || depth >= self.params.max_depth {
-            self.make_leaf(node, &tris, depth);
+    /// Builds `node` over the triangles `refs[range.0..range.1]`. Children's lists are appended
+    /// to `refs` (one scratch buffer for the whole build) and dropped once they are built.
+    fn build_node(&mut self, node: usize, cell: Aabb, range: (usize, usize), depth: u32) {
+        let n = range.1 - range.0;
+        if n <= self.params.max_leaf_triangles as usize || depth >= self.params.max_depth {
+            self.make_leaf(node, range, depth);
             return;
         }
         let mid = cell.center();
-        let children = self.split(&cell, mid, &tris);
-        let total: usize = children.iter().map(Vec::len).sum();
-        let non_empty = children.iter().filter(|c| !c.is_empty()).count();
-        let separated = non_empty == 1
-            || children
-                .iter()
-                .any(|c| !c.is_empty() && c.len() < tris.len());
-        if !separated || total > MAX_DUPLICATION * tris.len() {
-            self.make_leaf(node, &tris, depth);
+        let counts = self.split(&cell, mid, range);
+        let total: usize = counts.iter().sum();
+        let non_empty = counts.iter().filter(|&&c| c != 0).count();
+        let separated = non_empty == 1 || counts.iter().any(|&c| c != 0 && c < n);
+        if !separated || total > MAX_DUPLICATION * n {
+            self.make_leaf(node, range, depth);
             return;
         }
-        drop(tris);
+        // Lay the children's lists out after everything in use, in child order.
+        let base = self.refs.len();
+        let mut offsets = [0usize; 8];
+        let mut at = base;
+        for (o, &c) in offsets.iter_mut().zip(&counts) {
+            *o = at;
+            at += c;
+        }
+        self.refs.resize(at, 0);
+        let mut fill = offsets;
+        for k in 0..n {
+            let t = self.refs[range.0 + k];
+            let mask = self.masks[k];
+            for (c, f) in fill.iter_mut().enumerate() {
+                if mask & (1 << c) != 0 {
+                    self.refs[*f] = t;
+                    *f += 1;
+                }
+            }
+        }
         let first = self.nodes.len();
         self.nodes.resize(first + 8, Node { first: 0, count: 0 });
         self.nodes[node] = Node {
             first: first as u32,
             count: INTERIOR,
         };
-        for (c, list) in children.into_iter().enumerate() {
+        for c in 0..8 {
             let child_cell = child_box(&cell, mid, c);
-            self.build_node(first + c, child_cell, list, depth + 1);
+            let child_range = (offsets[c], offsets[c] + counts[c]);
+            self.build_node(first + c, child_cell, child_range, depth + 1);
         }
+        self.refs.truncate(base);
     }
 
-    /// Files each triangle of `tris` into the children of `cell` it touches.
-    fn split(&self, cell: &Aabb, mid: Vec3, tris: &[u32]) -> [Vec<u32>; 8] {
-        let mut children: [Vec<u32>; 8] = Default::default();
+    /// Decides which children of `cell` each triangle of `refs[range.0..range.1]` touches: bit `c`
+    /// of `masks[k]` for the `k`-th triangle. Returns how many triangles each child gets.
+    fn split(&mut self, cell: &Aabb, mid: Vec3, range: (usize, usize)) -> [usize; 8] {
+        let mut counts = [0usize; 8];
         let m = self.margin;
-        for &t in tris {
-            let b = &self.boxes[t as usize];
+        self.masks.clear();
+        let child_boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
+        for k in range.0..range.1 {
+            let t = self.refs[k] as usize;
+            let b = &self.boxes[t];
             // Which halves of each axis the triangle's box reaches (boundaries count on both).
-            let mut sides = [[false; 2]; 3];
+            let mut lo = [false; 3];
+            let mut hi = [false; 3];
             for a in 0..3 {
-                sides[a] = [b.min[a] <= mid[a] + m, b.max[a] >= mid[a] - m];
+                lo[a] = b.min[a] <= mid[a] + m;
+                hi[a] = b.max[a] >= mid[a] - m;
             }
-            let candidates = (0..8usize).filter(|&c| (0..3).all(|a| sides[a][(c >> a) & 1]));
-            let single = (0..3).all(|a| !(sides[a][0] && sides[a][1]));
-            for c in candidates {
-                if single {
-                    children[c].push(t);
+            let single = (0..3).all(|a| !(lo[a] && hi[a]));
+            let mut mask = 0u8;
+            for (c, cb) in child_boxes.iter().enumerate() {
+                let candidate = (0..3).all(|a| if (c >> a) & 1 == 1 { hi[a] } else { lo[a] });
+                if !candidate {
                     continue;
                 }
-                let cb = child_box(cell, mid, c);
-                let half = (cb.max - cb.min) * 0.5 + Vec3::splat(m);
-                if triangle_box_overlap(cb.center(), half, &self.triangles[t as usize]) {
-                    children[c].push(t);
+                // A box on one side of every centre plane lies in one child: it is the triangle's
+                // only candidate and the parent's test already said the triangle touches it.
+                if single || self.touches(cb, t) {
+                    mask |= 1 << c;
+                    counts[c] += 1;
                 }
             }
+            self.masks.push(mask);
         }
-        children
+        counts
+    }
+
+    /// True if triangle `t` touches the child box `cb` grown by the margin.
+    #[inline]
+    fn touches(&self, cb: &Aabb, t: usize) -> bool {
+        let m = Vec3::splat(self.margin);
+        let p = &self.triangles[t];
+        let (lo, hi) = (cb.min - m, cb.max + m);
+        // A vertex inside the grown box is a touch (accepting it can only file more, never
+        // fewer); otherwise the exact separating-axis test decides.
+        if p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all()) {
+            return true;
+        }
+        let half = (cb.max - cb.min) * 0.5 + m;
+        triangle_box_overlap(cb.center(), half, p)
     }
 }
 
