@@ -6,27 +6,15 @@ use strahl_core::camera::Camera;
 use strahl_host::config::{parse_config, read_config, Config};
 use strahl_host::error::LoadError;
 
-fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.path().join(name);
-    std::fs::write(&path, bytes).expect("write fixture");
-    path
-}
+mod common;
+use common::{assert_at, write};
 
 /// Parses `text` from a file and returns the error message, which must name `line`.
 fn error_at(text: &str, line: usize) -> String {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = write(&dir, "raytracer.cfg", text.as_bytes());
     let err = read_config(&path).expect_err("the text should be rejected");
-    let msg = err.to_string();
-    assert!(
-        matches!(err, LoadError::At { line: l, .. } if l == line),
-        "{msg}"
-    );
-    assert!(
-        msg.starts_with(&format!("{}:{line}: ", path.display())),
-        "{msg}"
-    );
-    msg
+    assert_at(err, &path, line)
 }
 
 fn parse(text: &str) -> Config {

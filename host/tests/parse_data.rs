@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use strahl_core::scene::{Light, Shader, TriangleDesc};
 use strahl_host::datafile::{parse_data, read_data, SceneData};
 use strahl_host::error::LoadError;
@@ -14,27 +14,15 @@ const HEAD: &str =
     "_SHD 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 20 0.5\n_LIGHT 1 2 3 0.5 0.6 0.7 0.8 1\n\
                     _PT 0 0 0\n_PT 1 0 0\n_PT 0 1 0\n";
 
-fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {
-    let path = dir.path().join(name);
-    std::fs::write(&path, bytes).expect("write fixture");
-    path
-}
+mod common;
+use common::{assert_at, write};
 
 /// Reads `text` from a file with `base` and returns the message, which must name `line`.
 fn error_at(text: &str, base: u32, line: usize) -> String {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = write(&dir, "ROOM.txt", text.as_bytes());
     let err = read_data(&path, base).expect_err("the text should be rejected");
-    let msg = err.to_string();
-    assert!(
-        matches!(err, LoadError::At { line: l, .. } if l == line),
-        "{msg}"
-    );
-    assert!(
-        msg.starts_with(&format!("{}:{line}: ", path.display())),
-        "{msg}"
-    );
-    msg
+    assert_at(err, &path, line)
 }
 
 /// Reads `text` from a file and returns a whole-file error's message.
