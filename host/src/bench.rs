@@ -59,7 +59,11 @@ fn median(mut v: Vec<Duration>) -> Duration {
 }
 
 /// Runs the benchmark.
-pub fn run(opts: &BenchOptions) -> BenchReport {
+///
+/// # Errors
+/// A [`SceneError`](strahl_core::error::SceneError) if the generated scene is invalid for the
+/// options (it is not for any options the command line accepts).
+pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::error::SceneError> {
     let mut desc = generate::large(opts.triangles);
     desc.settings = RenderSettings {
         width: opts.size,
@@ -86,10 +90,7 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         .map(Octree::stats)
         .unwrap_or(&Default::default());
 
-    let scene = match Scene::build(&desc, &opts.octree) {
-        Ok(s) => s,
-        Err(e) => unreachable!("the generated scene is valid: {e}"),
-    };
+    let scene = Scene::build(&desc, &opts.octree)?;
     let (w, h) = (opts.size, opts.size);
     let mut primary = Vec::with_capacity(runs);
     let mut hits = 0u64;
@@ -125,14 +126,14 @@ pub fn run(opts: &BenchOptions) -> BenchReport {
         shaded.push(start.elapsed());
     }
     let shaded_time = median(shaded);
-    BenchReport {
+    Ok(BenchReport {
         triangles: tris.len(),
         build: median(builds),
         stats,
         primary_rays_per_s: (w * h) as f64 / median(primary).as_secs_f64(),
         shaded_rays_per_s: rays as f64 / shaded_time.as_secs_f64(),
         shaded_time,
-    }
+    })
 }
 
 impl std::fmt::Display for BenchReport {
@@ -204,7 +205,7 @@ pub struct BenchArgs {
 /// Runs `strahl bench` and prints its report on stdout.
 ///
 /// # Errors
-/// None today; the signature matches the other subcommands.
+/// If the generated scene cannot be built.
 pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
     let opts = BenchOptions {
         triangles: args.triangles,
@@ -215,6 +216,7 @@ pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
             max_leaf_triangles: args.octree_leaf,
         },
     };
-    println!("{}", run(&opts));
+    let report = run(&opts).map_err(|e| anyhow::anyhow!("generated benchmark scene: {e}"))?;
+    println!("{report}");
     Ok(())
 }
