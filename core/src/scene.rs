@@ -8,7 +8,7 @@
 use crate::camera::{Camera, CameraFrame};
 use crate::error::SceneError;
 use crate::octree::{Octree, OctreeParams};
-use crate::triangle::area_normal;
+use crate::triangle::{area_normal, unit_normal};
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -151,16 +151,17 @@ impl Scene {
         let mut degenerate = 0u32;
         let mut face_normals = Vec::with_capacity(triangle_points.len());
         for (t, p) in desc.triangles.iter().zip(&triangle_points) {
-            let n = area_normal(p);
-            let unit = n.normalize_or_zero();
-            if unit == Vec3::ZERO {
-                degenerate += 1;
-            } else {
-                for &i in &t.points {
-                    point_normals[i as usize] += n;
+            let unit = unit_normal(p);
+            match unit {
+                None => degenerate += 1,
+                Some(_) => {
+                    let n = area_normal(p);
+                    for &i in &t.points {
+                        point_normals[i as usize] += n;
+                    }
                 }
             }
-            face_normals.push(unit);
+            face_normals.push(unit.unwrap_or(Vec3::ZERO));
         }
         let triangle_normals = desc
             .triangles

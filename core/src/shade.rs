@@ -11,7 +11,7 @@
 use crate::octree::Hit;
 use crate::ray::{offset_ray_origin, Ray};
 use crate::scene::Scene;
-use crate::triangle::{area_normal, hit_point};
+use crate::triangle::{hit_point, unit_normal};
 use glam::Vec3;
 
 /// Rays traced, by kind.
@@ -57,7 +57,8 @@ fn surface(scene: &Scene, ray: &Ray, hit: &Hit) -> Surface {
     let t = hit.triangle as usize;
     let p = &scene.triangle_points[t];
     let (point, point_error) = hit_point(p, hit.tri.b);
-    let mut geometric = area_normal(p).normalize();
+    // Hit triangles are never degenerate (the octree leaves those out); Z only avoids a panic path.
+    let mut geometric = unit_normal(p).unwrap_or(Vec3::Z);
     if geometric.dot(ray.dir) > 0.0 {
         geometric = -geometric;
     }

@@ -171,6 +171,14 @@ pub fn area_normal(p: &[Vec3; 3]) -> Vec3 {
     (p[1] - p[0]).cross(p[2] - p[0])
 }
 
+/// The unit geometric normal, or `None` for a degenerate triangle: one whose normal cannot be
+/// computed (zero area, or an area so small that its square underflows). This is the one
+/// definition of "degenerate": such triangles are left out of the octree and never hit.
+#[inline]
+pub fn unit_normal(p: &[Vec3; 3]) -> Option<Vec3> {
+    area_normal(p).try_normalize()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -233,5 +241,18 @@ mod tests {
                 reference.t_error
             );
         }
+    }
+
+    #[test]
+    fn tiny_triangle_whose_area_underflows_is_degenerate() {
+        // Edges of 1e-20: the area normal is a nonzero subnormal (about 1e-40), so an
+        // `area_normal == 0` rule would file it, but its squared length underflows and no unit
+        // normal exists: it must count as degenerate, or shading it would produce a NaN normal.
+        let p = tri().map(|v| v * 1e-20);
+        assert_ne!(area_normal(&p), Vec3::ZERO);
+        assert!(unit_normal(&p).is_none());
+        assert!(unit_normal(&tri()).is_some());
+        let flat = [Vec3::ZERO, Vec3::X, Vec3::X * 2.0];
+        assert!(unit_normal(&flat).is_none());
     }
 }

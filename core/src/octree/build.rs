@@ -4,7 +4,7 @@ use super::overlap::triangle_box_overlap;
 use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::aabb::Aabb;
 use crate::float::gamma;
-use crate::triangle::area_normal;
+use crate::triangle::unit_normal;
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -43,7 +43,7 @@ impl Octree {
         for (i, p) in triangles.iter().enumerate() {
             let b = Aabb::of_triangle(p);
             boxes.push(b);
-            if area_normal(p) != Vec3::ZERO {
+            if unit_normal(p).is_some() {
                 filed.push(i as u32);
                 bounds.min = bounds.min.min(b.min);
                 bounds.max = bounds.max.max(b.max);

@@ -140,7 +140,7 @@ pub fn brute_force_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -
     let mut best: Option<Hit> = None;
     for (i, p) in triangles.iter().enumerate() {
         // Degenerate triangles are not filed in the octree either.
-        if crate::triangle::area_normal(p) == Vec3::ZERO {
+        if crate::triangle::unit_normal(p).is_none() {
             continue;
         }
         if let Some(h) = intersect(&frame, p, t_max) {
