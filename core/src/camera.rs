@@ -9,7 +9,7 @@ use crate::ray::Ray;
 use glam::Vec3;
 
 /// A camera as the configuration file describes it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Camera {
     /// Eye position.
     pub position: Vec3,

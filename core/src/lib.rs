@@ -15,6 +15,8 @@
 //! - [`shade`]: Phong shading, shadows and reflections with the 10% cut-off.
 //! - [`pixel`]: fixed-point pixels and the one place where colours are clamped and quantised.
 //! - [`render`]: [`render::render_line`], the unit of work every executor calls.
+//! - [`protocol`]: the wire protocol (frames, messages, scene transfer) and the worker loop that
+//!   serves it over any `embedded_io` link.
 //! - [`error`]: the small `Copy` error enums.
 #![no_std]
 #![forbid(unsafe_code)]
@@ -27,6 +29,7 @@ pub mod error;
 pub mod float;
 pub mod octree;
 pub mod pixel;
+pub mod protocol;
 pub mod ray;
 pub mod render;
 pub mod scene;

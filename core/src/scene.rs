@@ -17,7 +17,7 @@ pub const MAX_IMAGE_SIDE: u32 = 32768;
 
 /// A Phong material (`_SHD`): colours per channel in `[0, 1]`, a shininess exponent and the share
 /// of reflected colour.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Shader {
     /// Ambient colour, added regardless of lights.
     pub ambient: Vec3,
@@ -32,7 +32,7 @@ pub struct Shader {
 }
 
 /// A point light (`_LIGHT`).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Light {
     /// Position.
     pub position: Vec3,
@@ -45,7 +45,7 @@ pub struct Light {
 }
 
 /// A triangle (`_TR`): three point indices and a shader index, all 0-based.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct TriangleDesc {
     /// Indices into [`SceneDesc::points`].
     pub points: [u32; 3],
@@ -54,7 +54,7 @@ pub struct TriangleDesc {
 }
 
 /// Global render settings (the configuration file's switches and image size).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RenderSettings {
     /// Image width in pixels.
     pub width: u32,
@@ -88,7 +88,7 @@ impl Default for RenderSettings {
 }
 
 /// A scene as loaded from files: geometry, materials, lights, camera and settings.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SceneDesc {
     /// Vertex positions (`_PT`).
     pub points: Vec<Vec3>,

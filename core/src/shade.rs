@@ -15,7 +15,7 @@ use crate::triangle::{hit_point, unit_normal};
 use glam::Vec3;
 
 /// Rays traced, by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
     /// Rays from the camera.
     pub primary: u64,

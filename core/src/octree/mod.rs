@@ -27,7 +27,7 @@ use glam::Vec3;
 pub const MAX_DEPTH_LIMIT: u32 = 20;
 
 /// Octree build limits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct OctreeParams {
     /// Cells at this depth are never split (clamped to [`MAX_DEPTH_LIMIT`]).
     pub max_depth: u32,
