@@ -5,8 +5,11 @@
 //! To add a subcommand: add a variant `Name(crate::name::NameArgs)` with a doc comment (its help
 //! line) and a match arm calling `crate::name::run(args)`.
 
+use crate::cluster::master::{run_master, MasterOptions};
+use crate::cluster::prepared::{PrepareError, PreparedScene};
+use crate::cluster::report::WorkerTable;
+use crate::executor::{start_workers, ClusterArgs};
 use crate::load::{load_config_scene, Overrides};
-use crate::local::render_local;
 use crate::output::{check_output_path, write_image};
 use crate::progress::Progress;
 use crate::summary::RenderSummary;
@@ -14,10 +17,10 @@ use anyhow::anyhow;
 use clap::{Args, Parser, Subcommand};
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use strahl_core::error::SceneError;
 use strahl_core::octree::OctreeParams;
-use strahl_core::scene::{Scene, MAX_IMAGE_SIDE};
+use strahl_core::scene::MAX_IMAGE_SIDE;
 
 /// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
 #[derive(Debug, Parser)]
@@ -37,6 +40,8 @@ pub enum Command {
     Generate(crate::generate::GenerateArgs),
     /// Measure octree build time and size, and rays per second, on the large generated scene.
     Bench(crate::bench::BenchArgs),
+    /// Serve masters as a render worker, over TCP (listening or dialling) or a serial port.
+    Worker(crate::worker::WorkerArgs),
 }
 
 /// The most worker threads `--workers` accepts.
@@ -71,7 +76,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "on|off", value_parser = parse_switch)]
     pub reflections: Option<bool>,
 
-    /// Worker threads in this process, 1 to 1024 [default: the number of CPUs].
+    /// In-process workers, 0 to 1024 [default: the number of CPUs, or 0 when other workers are
+    /// named].
     #[arg(long, value_name = "N", value_parser = worker_count())]
     pub workers: Option<u32>,
 
@@ -83,6 +89,10 @@ pub struct RenderArgs {
     /// Print nothing on stderr unless there is an error (no progress bar, no summary).
     #[arg(short, long)]
     pub quiet: bool,
+
+    /// Workers outside this process and how the master treats them.
+    #[command(flatten)]
+    pub cluster: ClusterArgs,
 }
 
 /// The parser of `--width` and `--height`: 1 to [`MAX_IMAGE_SIDE`].
@@ -90,9 +100,9 @@ fn image_side() -> clap::builder::RangedI64ValueParser<u32> {
     clap::value_parser!(u32).range(1..=i64::from(MAX_IMAGE_SIDE))
 }
 
-/// The parser of `--workers`: 1 to [`MAX_WORKERS`].
+/// The parser of `--workers`: 0 to [`MAX_WORKERS`].
 fn worker_count() -> clap::builder::RangedI64ValueParser<u32> {
-    clap::value_parser!(u32).range(1..=i64::from(MAX_WORKERS))
+    clap::value_parser!(u32).range(0..=i64::from(MAX_WORKERS))
 }
 
 /// Parses an on/off switch: `on` or `1` is true, `off` or `0` is false (exactly these words).
@@ -116,6 +126,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => run_render(&args),
         Command::Generate(args) => crate::generate::run(&args),
         Command::Bench(args) => crate::bench::run_command(&args),
+        Command::Worker(args) => crate::worker::run(&args),
     }
 }
 
@@ -132,20 +143,36 @@ impl RenderArgs {
         }
     }
 
-    /// The number of worker threads: `--workers`, or the number of CPUs.
+    /// The number of in-process workers: `--workers`, or the number of CPUs when no other
+    /// worker is named, else 0.
     pub fn worker_count(&self) -> usize {
         match self.workers {
-            Some(n) => (n as usize).max(1),
+            Some(n) => n as usize,
+            None if self.cluster.has_remote() => 0,
             None => std::thread::available_parallelism().map_or(1, NonZeroUsize::get),
+        }
+    }
+
+    /// The master's options from the command line.
+    pub fn master_options(&self) -> MasterOptions {
+        let timeout = Duration::from_secs_f64(self.cluster.worker_timeout);
+        MasterOptions {
+            window: self.cluster.window,
+            probe_interval: (timeout / 4).min(Duration::from_secs(2)),
+            worker_timeout: timeout,
+            wait_for_workers: timeout,
+            name: crate::worker::host_name(),
         }
     }
 }
 
-/// `strahl render`: load, check the output path, build the octree, render with local worker
-/// threads, write the image, print the summary.
+/// `strahl render`: load, check the output path, build the octree, start or reach the workers,
+/// render through the master, write the image, print the summary.
 ///
 /// # Errors
-/// A message naming the file (and line) at fault, or the output path that cannot be written.
+/// A message naming the file (and line) at fault, the output path that cannot be written, a
+/// worker option that cannot be used, or the workers lost before the image was complete (then
+/// no image is written).
 pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let loaded = load_config_scene(&args.config, &args.overrides())?;
@@ -154,22 +181,37 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     check_output_path(&loaded.output)?;
 
     let build_start = Instant::now();
-    let scene = Scene::build(&loaded.desc, &OctreeParams::default()).map_err(|e| {
+    let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {
         let file = match e {
-            SceneError::BadImageSize => &loaded.config_path,
+            PrepareError::Scene(SceneError::BadImageSize) => &loaded.config_path,
             _ => &loaded.data_path,
         };
         anyhow!("{}: {e}", file.display())
     })?;
     let octree_build = build_start.elapsed();
-
-    let workers = args.worker_count();
+    let scene = &prepared.scene;
     let settings = scene.settings;
+
     let progress = Progress::new(settings.height, args.quiet);
+    let warn = |msg: &str| {
+        if !args.quiet {
+            progress.println(&format!("warning: {msg}"));
+        }
+    };
+    let mut workers = start_workers(&args.cluster, args.worker_count(), &prepared, &warn)?;
     let render_start = Instant::now();
-    let image = render_local(&scene, workers, &|_, rays| progress.line_done(rays))?;
+    let image = run_master(
+        &prepared.job(),
+        std::mem::take(&mut workers.links),
+        workers.joins.as_ref(),
+        &args.master_options(),
+        &|_, rays| progress.line_done(rays),
+        &warn,
+    );
     let render = render_start.elapsed();
     progress.finish();
+    drop(workers);
+    let image = image?;
 
     write_image(
         &loaded.output,
@@ -189,10 +231,11 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             triangles: scene.triangle_points.len(),
             octree: *scene.octree.stats(),
             rays: image.rays,
-            workers: workers.min(settings.height as usize),
+            workers: image.workers.len(),
             output: loaded.output.clone(),
         };
         eprintln!("{summary}");
+        eprint!("{}", WorkerTable(&image.workers));
     }
     Ok(())
 }
@@ -254,7 +297,10 @@ mod tests {
         assert_eq!(a.worker_count(), 3);
         assert!(a.quiet);
         for bad in [
-            &["--workers", "0"][..],
+            &["--workers", "1025"][..],
+            &["--window", "0"],
+            &["--worker-timeout", "0"],
+            &["--launch", "x"],
             &["--index-base", "2"],
             &["--width", "0"],
             &["--shadows", "maybe"],

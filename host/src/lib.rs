@@ -3,13 +3,16 @@
 //! Modules (each helper adds its own `pub mod` line here):
 pub mod bench;
 pub mod cli;
+pub mod cluster;
 pub mod config;
 pub mod datafile;
 pub mod error;
+pub mod executor;
 pub mod generate;
+pub mod hosts;
 pub mod lines;
 pub mod load;
-pub mod local;
 pub mod output;
 pub mod progress;
 pub mod summary;
+pub mod worker;

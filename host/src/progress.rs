@@ -78,6 +78,14 @@ impl Progress {
         }
     }
 
+    /// Prints a message line on stderr above the bar (or plainly, when no bar is drawn).
+    pub fn println(&self, msg: &str) {
+        match &self.bar {
+            Some(bar) => bar.println(msg),
+            None => eprintln!("{msg}"),
+        }
+    }
+
     /// Removes the bar from the terminal, so that the summary line follows a clean prompt.
     pub fn finish(&self) {
         if let Some(bar) = &self.bar {

@@ -266,8 +266,10 @@ fn failed_run_keeps_an_existing_image() -> TestResult {
 fn usage_errors_exit_2() -> TestResult {
     let dir = scene_dir(CONFIG, DATA)?;
     for args in [
-        &["--workers", "0"][..],
+        &["--workers", "1025"][..],
         &["--workers", "x"],
+        &["--window", "0"],
+        &["--worker-timeout", "-1"],
         &["--shadows", "yes"],
         &["--index-base", "2"],
         &["--width", "0"],
@@ -279,6 +281,16 @@ fn usage_errors_exit_2() -> TestResult {
     }
     let out = strahl(dir.path(), &["render"])?;
     assert_eq!(out.status.code(), Some(2));
+    assert_eq!(listing(dir.path())?, names(&["scene.cfg", "room.txt"]));
+    Ok(())
+}
+
+#[test]
+fn no_worker_at_all_is_an_error() -> TestResult {
+    let dir = scene_dir(CONFIG, DATA)?;
+    let out = render(dir.path(), &["--workers", "0"])?;
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr(&out).contains("no worker"), "{}", stderr(&out));
     assert_eq!(listing(dir.path())?, names(&["scene.cfg", "room.txt"]));
     Ok(())
 }
@@ -311,13 +323,27 @@ fn summary_names_size_rays_and_output() -> TestResult {
     assert_success(&out);
     assert!(out.stdout.is_empty());
     let err = stderr(&out);
-    // stderr is not a terminal here: no progress bar, just the summary line.
-    assert_eq!(err.lines().count(), 1, "{err}");
+    // stderr is not a terminal here: no progress bar, just the summary line and the worker
+    // table (a header and one line per worker).
+    assert_eq!(err.lines().count(), 4, "{err}");
+    let table: Vec<&str> = err.lines().skip(1).collect();
+    assert!(table[0].starts_with("worker "), "{err}");
+    assert!(
+        table[1].starts_with("local-1 ") && table[1].ends_with(" ok"),
+        "{err}"
+    );
+    assert!(
+        table[2].starts_with("local-2 ") && table[2].ends_with(" ok"),
+        "{err}"
+    );
     assert!(err.starts_with("rendered 32x24 in "), "{err}");
     assert!(err.contains("2 triangles"), "{err}");
     assert!(err.contains(&format!("rays {} primary", 32 * 24)), "{err}");
     assert!(err.contains(" shadow, 0 reflection"), "{err}");
     assert!(err.contains("2 workers"), "{err}");
-    assert!(err.trim_end().ends_with("out.bmp"), "{err}");
+    assert!(
+        err.lines().next().unwrap_or("").ends_with("out.bmp"),
+        "{err}"
+    );
     Ok(())
 }

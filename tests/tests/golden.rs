@@ -6,9 +6,10 @@
 
 use std::path::Path;
 use strahl_core::octree::OctreeParams;
-use strahl_core::scene::{Scene, SceneDesc};
+use strahl_core::scene::SceneDesc;
+use strahl_host::cluster::local::render_local;
+use strahl_host::cluster::prepared::PreparedScene;
 use strahl_host::load::{load_config_scene, Overrides};
-use strahl_host::local::render_local;
 
 fn fnv1a(bytes: impl Iterator<Item = u8>) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;
@@ -20,8 +21,8 @@ fn fnv1a(bytes: impl Iterator<Item = u8>) -> u64 {
 }
 
 fn image_hash(desc: &SceneDesc, workers: usize) -> u64 {
-    let scene = Scene::build(desc, &OctreeParams::default()).expect("valid scene");
-    let image = render_local(&scene, workers, &|_, _| {}).expect("render");
+    let prepared = PreparedScene::new(desc, &OctreeParams::default()).expect("valid scene");
+    let image = render_local(&prepared, workers, &|_, _| {}).expect("render");
     fnv1a(image.pixels.iter().flat_map(|p| p.to_rgb8()))
 }
 

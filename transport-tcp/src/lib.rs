@@ -1,2 +1,225 @@
-//! TCP transport for Strahl frames (filled in by the distribution issue).
+//! TCP transport for Strahl: endpoints, connecting, and the worker side of a TCP link.
+//!
+//! The master's side of a connection is a plain [`TcpStream`] (the host wraps it into its link
+//! type); the worker's side runs [`strahl_core::protocol::worker::serve`] over the stream. Frames
+//! are small and latency-bound, so every stream has Nagle's algorithm off.
+//!
+//! Workers either listen ([`serve_listener`]: one master at a time, then the next) or dial a
+//! master that listens ([`dial`]), which suits batch schedulers and NAT.
 #![forbid(unsafe_code)]
+
+use embedded_io_adapters::std::FromStd;
+use std::io::{self, BufReader, Read, Write};
+use std::net::{TcpListener, TcpStream, ToSocketAddrs};
+use std::time::{Duration, Instant};
+use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+
+/// The port workers listen on and masters dial when an address names none.
+pub const DEFAULT_PORT: u16 = 7415;
+
+/// `host`, `host:port`, `[v6]` or `[v6]:port` as `host:port`, with [`DEFAULT_PORT`] when no
+/// port is given: an address to dial.
+///
+/// # Errors
+/// A message if the text is empty, has spaces, or its port is not a number from 1 to 65535.
+pub fn parse_endpoint(text: &str) -> Result<String, String> {
+    parse_address(text, false)
+}
+
+/// Like [`parse_endpoint`], for an address to listen on: port 0 (any free port) is allowed.
+///
+/// # Errors
+/// A message if the text is empty, has spaces, or its port is not a number from 0 to 65535.
+pub fn parse_listen_address(text: &str) -> Result<String, String> {
+    parse_address(text, true)
+}
+
+fn parse_address(text: &str, allow_port_0: bool) -> Result<String, String> {
+    let text = text.trim();
+    if text.is_empty() || text.contains(char::is_whitespace) {
+        return Err(format!("`{text}` is not a host name or host:port"));
+    }
+    let (host, port) = if let Some(rest) = text.strip_prefix('[') {
+        let Some((v6, after)) = rest.split_once(']') else {
+            return Err(format!("`{text}`: missing `]` after an IPv6 address"));
+        };
+        match after.strip_prefix(':') {
+            Some(port) => (format!("[{v6}]"), Some(port)),
+            None if after.is_empty() => (format!("[{v6}]"), None),
+            None => return Err(format!("`{text}`: expected `:PORT` after `]`")),
+        }
+    } else {
+        match text.rsplit_once(':') {
+            Some((h, _)) if h.contains(':') => {
+                return Err(format!("`{text}`: write IPv6 addresses as [ADDRESS]:PORT"))
+            }
+            Some((h, p)) => (h.to_string(), Some(p)),
+            None => (text.to_string(), None),
+        }
+    };
+    if host.is_empty() || host == "[]" {
+        return Err(format!("`{text}` names no host"));
+    }
+    let port = match port {
+        None => DEFAULT_PORT,
+        Some(p) => match p.parse::<u16>() {
+            Ok(n) if n > 0 || allow_port_0 => n,
+            _ => {
+                let low = if allow_port_0 { 0 } else { 1 };
+                return Err(format!(
+                    "`{text}`: the port must be a number from {low} to 65535"
+                ));
+            }
+        },
+    };
+    Ok(format!("{host}:{port}"))
+}
+
+/// Connects to `endpoint` (`host:port`), trying each address it resolves to, each within
+/// `timeout`, with Nagle's algorithm off.
+///
+/// # Errors
+/// The last connection error, or one saying the name did not resolve.
+pub fn connect(endpoint: &str, timeout: Duration) -> io::Result<TcpStream> {
+    let mut last = io::Error::new(
+        io::ErrorKind::NotFound,
+        format!("{endpoint} resolves to no address"),
+    );
+    for addr in endpoint.to_socket_addrs()? {
+        match TcpStream::connect_timeout(&addr, timeout) {
+            Ok(stream) => {
+                stream.set_nodelay(true)?;
+                return Ok(stream);
+            }
+            Err(e) => last = e,
+        }
+    }
+    Err(last)
+}
+
+/// A TCP stream with buffered reads and direct writes (each frame is written whole).
+pub struct BufferedStream {
+    reader: BufReader<TcpStream>,
+    writer: TcpStream,
+}
+
+impl BufferedStream {
+    /// Wraps `stream`.
+    ///
+    /// # Errors
+    /// If the stream cannot be duplicated or configured.
+    pub fn new(stream: TcpStream) -> io::Result<Self> {
+        stream.set_nodelay(true)?;
+        Ok(BufferedStream {
+            reader: BufReader::with_capacity(1 << 16, stream.try_clone()?),
+            writer: stream,
+        })
+    }
+}
+
+impl Read for BufferedStream {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        self.reader.read(buf)
+    }
+}
+
+impl Write for BufferedStream {
+    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
+        self.writer.write(buf)
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        self.writer.flush()
+    }
+}
+
+/// Serves one master over a connected stream.
+///
+/// # Errors
+/// The stream cannot be set up, or what [`serve`] reports.
+pub fn serve_stream(
+    stream: TcpStream,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+) -> Result<SessionEnd, SessionError> {
+    let mut link = FromStd::new(BufferedStream::new(stream).map_err(SessionError::Setup)?);
+    serve(&mut link, node, cache).map_err(SessionError::Worker)
+}
+
+/// Why a TCP session ended abnormally.
+#[derive(Debug)]
+pub enum SessionError {
+    /// The stream could not be set up.
+    Setup(io::Error),
+    /// The session failed.
+    Worker(WorkerError),
+}
+
+/// Accepts masters on `listener` one at a time and serves each until it ends the session or
+/// disconnects; then the next. `report` is told about each session (the peer, how it ended).
+/// Returns after `sessions` sessions if given, never otherwise.
+///
+/// # Errors
+/// If accepting fails.
+pub fn serve_listener(
+    listener: &TcpListener,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+    sessions: Option<u32>,
+    report: &mut dyn FnMut(String, Result<SessionEnd, SessionError>),
+) -> io::Result<()> {
+    let mut served = 0;
+    while sessions.is_none_or(|n| served < n) {
+        let (stream, peer) = listener.accept()?;
+        let outcome = serve_stream(stream, node, cache);
+        report(peer.to_string(), outcome);
+        served += 1;
+    }
+    Ok(())
+}
+
+/// Dials a listening master, retrying for up to `patience` while it is not up yet, and serves
+/// one session.
+///
+/// # Errors
+/// The last connection error once `patience` is spent, or what the session reports.
+pub fn dial(
+    endpoint: &str,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+    patience: Duration,
+) -> Result<SessionEnd, SessionError> {
+    let start = Instant::now();
+    let stream = loop {
+        match connect(endpoint, Duration::from_secs(5)) {
+            Ok(s) => break s,
+            Err(e) if start.elapsed() >= patience => return Err(SessionError::Setup(e)),
+            Err(_) => std::thread::sleep(Duration::from_millis(200)),
+        }
+    };
+    serve_stream(stream, node, cache)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn endpoints() {
+        assert_eq!(parse_endpoint("node1").as_deref(), Ok("node1:7415"));
+        assert_eq!(parse_endpoint("node1:99").as_deref(), Ok("node1:99"));
+        assert_eq!(parse_endpoint("10.0.0.7").as_deref(), Ok("10.0.0.7:7415"));
+        assert_eq!(parse_endpoint("[::1]").as_deref(), Ok("[::1]:7415"));
+        assert_eq!(parse_endpoint("[::1]:8").as_deref(), Ok("[::1]:8"));
+        assert_eq!(
+            parse_listen_address("0.0.0.0:0").as_deref(),
+            Ok("0.0.0.0:0")
+        );
+        assert!(parse_listen_address("0.0.0.0:65536").is_err());
+        for bad in [
+            "", "a b", "h:0", "h:70000", "h:x", "::1", "[::1", "[::1]x", ":5",
+        ] {
+            assert!(parse_endpoint(bad).is_err(), "{bad}");
+        }
+    }
+}

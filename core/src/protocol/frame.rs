@@ -67,12 +67,12 @@ pub enum ReadEvent<'a> {
 /// [`crate::protocol::MAX_FRAME_LEN`].
 pub struct FrameReader<B> {
     buf: B,
+    /// The current frame starts at `start`; bytes before it are spent.
+    start: usize,
     /// Bytes `..filled` of `buf` hold data read from the link.
     filled: usize,
-    /// Bytes `..scanned` are known to contain no delimiter.
+    /// Bytes `start..scanned` are known to contain no delimiter.
     scanned: usize,
-    /// Bytes `..consumed` belong to the frame returned last; they are discarded on the next call.
-    consumed: usize,
     /// Discarding an over-long frame up to the next delimiter.
     skipping: bool,
 }
@@ -82,9 +82,9 @@ impl<B: AsMut<[u8]>> FrameReader<B> {
     pub fn new(buf: B) -> Self {
         FrameReader {
             buf,
+            start: 0,
             filled: 0,
             scanned: 0,
-            consumed: 0,
             skipping: false,
         }
     }
@@ -96,37 +96,33 @@ impl<B: AsMut<[u8]>> FrameReader<B> {
     /// [`LinkError::TimedOut`] when the link's read timed out (call again; nothing is lost),
     /// [`LinkError::Io`] for other I/O errors.
     pub fn next<R: Read>(&mut self, link: &mut R) -> Result<ReadEvent<'_>, LinkError> {
-        if self.consumed > 0 {
-            let buf = self.buf.as_mut();
-            buf.copy_within(self.consumed..self.filled, 0);
-            self.filled -= self.consumed;
-            self.scanned = 0;
-            self.consumed = 0;
-        }
         loop {
             let buf = self.buf.as_mut();
             if let Some(i) = buf[self.scanned..self.filled].iter().position(|&b| b == 0) {
                 let end = self.scanned + i;
-                self.consumed = end + 1;
-                self.scanned = end;
+                let start = self.start;
+                self.start = end + 1;
+                self.scanned = end + 1;
                 if self.skipping {
                     self.skipping = false;
                     return Ok(ReadEvent::Dropped(DroppedFrame::TooLong));
                 }
-                if end == 0 {
-                    // An empty frame: consume the delimiter and go on.
-                    buf.copy_within(1..self.filled, 0);
-                    self.filled -= 1;
-                    self.scanned = 0;
-                    self.consumed = 0;
+                if end == start {
+                    // An empty frame (two delimiters in a row): nothing to report.
                     continue;
                 }
-                // The split keeps the borrow of `buf` for the returned slice only.
-                let buf = &mut self.buf.as_mut()[..end];
-                return Ok(match decode_frame(buf) {
-                    Some(n) => ReadEvent::Frame(&buf[..n]),
+                // A fresh borrow of the buffer for the returned slice only.
+                let body = &mut self.buf.as_mut()[start..end];
+                return Ok(match decode_frame(body) {
+                    Some(n) => ReadEvent::Frame(&body[..n]),
                     None => ReadEvent::Dropped(DroppedFrame::Corrupt),
                 });
+            }
+            // No delimiter in what we have: move the partial frame to the front, read more.
+            if self.start > 0 {
+                buf.copy_within(self.start..self.filled, 0);
+                self.filled -= self.start;
+                self.start = 0;
             }
             self.scanned = self.filled;
             if self.filled == buf.len() {
@@ -135,7 +131,6 @@ impl<B: AsMut<[u8]>> FrameReader<B> {
                 self.filled = 0;
                 self.scanned = 0;
             }
-            let buf = self.buf.as_mut();
             let n = loop {
                 match link.read(&mut buf[self.filled..]) {
                     Ok(n) => break n,

@@ -105,12 +105,15 @@ pub enum WorkerMessage<'a> {
     /// The answer to the master's `Hello`. Stays variant 0 in every protocol version.
     #[serde(borrow)]
     Hello(Hello<'a>),
-    /// The worker does not have the job's scene: send its chunks from `offset` on.
+    /// The worker does not have the job's scene and wants its chunks from `offset` on.
     NeedScene {
         /// The job.
         job: u32,
         /// First byte wanted.
         offset: u32,
+        /// `true`: (re)start sending at `offset` (the first request, or bytes were lost);
+        /// `false`: a window arrived whole, send the next one.
+        restart: bool,
     },
     /// The worker holds the job's scene and takes line requests.
     Ready {
@@ -153,8 +156,7 @@ impl<'a> MasterMessage<'a> {
     /// # Errors
     /// [`ProtocolError::Decode`] if the bytes are not a message, or the limit it breaks.
     pub fn decode(payload: &'a [u8]) -> Result<Self, ProtocolError> {
-        let msg: MasterMessage<'a> =
-            postcard::from_bytes(payload).map_err(|_| ProtocolError::Decode)?;
+        let msg: MasterMessage<'a> = decode_exact(payload)?;
         match msg {
             MasterMessage::Hello(h) => h.check()?,
             MasterMessage::Job { scene_len, .. } => {
@@ -184,8 +186,7 @@ impl<'a> WorkerMessage<'a> {
     /// # Errors
     /// [`ProtocolError::Decode`] if the bytes are not a message, or the limit it breaks.
     pub fn decode(payload: &'a [u8]) -> Result<Self, ProtocolError> {
-        let msg: WorkerMessage<'a> =
-            postcard::from_bytes(payload).map_err(|_| ProtocolError::Decode)?;
+        let msg: WorkerMessage<'a> = decode_exact(payload)?;
         match msg {
             WorkerMessage::Hello(h) => h.check()?,
             WorkerMessage::LineResult { pixels, .. } => {
@@ -203,6 +204,14 @@ impl<'a> WorkerMessage<'a> {
             | WorkerMessage::Refused { .. } => {}
         }
         Ok(msg)
+    }
+}
+
+/// Decodes a whole payload: bytes left over make it invalid too.
+fn decode_exact<'a, T: Deserialize<'a>>(payload: &'a [u8]) -> Result<T, ProtocolError> {
+    match postcard::take_from_bytes(payload) {
+        Ok((msg, [])) => Ok(msg),
+        _ => Err(ProtocolError::Decode),
     }
 }
 

@@ -35,6 +35,11 @@ pub const PIXEL_WIRE_BYTES: usize = 6;
 /// The most scene bytes one `SceneChunk` carries.
 pub const MAX_CHUNK_LEN: usize = 1024;
 
+/// Scene bytes in flight per transfer window: a worker asks for the next window (`NeedScene`
+/// with its current offset) each time it has received a multiple of this many bytes, and a
+/// master keeps at most two windows unanswered, so slow links are never flooded.
+pub const SCENE_WINDOW: u32 = 16 * MAX_CHUNK_LEN as u32;
+
 /// The longest node name or architecture string in a `Hello`, in bytes.
 pub const MAX_NAME_LEN: usize = 64;
 

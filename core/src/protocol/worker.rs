@@ -5,8 +5,9 @@
 //! closes. The same function runs in a thread of `strahl render`, in `strahl worker` over TCP or
 //! a serial port, and on a microcontroller. It allocates the scene and one line's buffers, sized
 //! from the scene; frames from the master are read into a buffer of
-//! [`MAX_MASTER_FRAME_LEN`](crate::protocol::MAX_MASTER_FRAME_LEN) bytes on the stack. Frames it
-//! cannot read are dropped and reported to the master with `Dropped`, so the master can find out
+//! [`MAX_MASTER_FRAME_LEN`](crate::protocol::MAX_MASTER_FRAME_LEN) bytes on the stack. The scene
+//! arrives in windows of [`SCENE_WINDOW`] bytes, each asked for with `NeedScene`. Frames it cannot
+//! read are dropped and reported to the master with `Dropped`, so the master can find out
 //! (with a `Fence`) which requests were lost.
 //!
 //! The [`SceneCache`] outlives sessions: a worker that serves the next master, or the next job
@@ -19,7 +20,7 @@ use crate::protocol::message::{
     encode_pixels, Digest, Hello, MasterMessage, Refusal, WorkerMessage,
 };
 use crate::protocol::scene_blob::{decode_bundle, memory_estimate, ChunkOutcome, SceneAssembler};
-use crate::protocol::{MAX_MASTER_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION};
+use crate::protocol::{MAX_MASTER_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW};
 use crate::render::render_line;
 use crate::scene::Scene;
 use alloc::sync::Arc;
@@ -248,6 +249,7 @@ impl<L: Read + Write> Session<'_, &mut L> {
                     Stage::Loading { assembler, .. } => WorkerMessage::NeedScene {
                         job: id,
                         offset: assembler.expected(),
+                        restart: true,
                     },
                     Stage::Ready { .. } => WorkerMessage::Ready { job: id },
                     Stage::Refused(reason) => WorkerMessage::Refused {
@@ -276,7 +278,11 @@ impl<L: Read + Write> Session<'_, &mut L> {
             }
         };
         let answer = match &stage {
-            Stage::Loading { .. } => WorkerMessage::NeedScene { job: id, offset: 0 },
+            Stage::Loading { .. } => WorkerMessage::NeedScene {
+                job: id,
+                offset: 0,
+                restart: true,
+            },
             Stage::Ready { .. } => WorkerMessage::Ready { job: id },
             Stage::Refused(reason) => WorkerMessage::Refused {
                 job: id,
@@ -302,7 +308,19 @@ impl<L: Read + Write> Session<'_, &mut L> {
         };
         let id = job.id;
         match assembler.push(digest, offset, bytes) {
-            ChunkOutcome::Appended | ChunkOutcome::Stale => Ok(()),
+            ChunkOutcome::Stale => Ok(()),
+            ChunkOutcome::Appended => {
+                let expected = assembler.expected();
+                // Crossing a window boundary asks for the next window.
+                if expected / SCENE_WINDOW == offset / SCENE_WINDOW {
+                    return Ok(());
+                }
+                self.send(&WorkerMessage::NeedScene {
+                    job: id,
+                    offset: expected,
+                    restart: false,
+                })
+            }
             ChunkOutcome::Gap { expected } => {
                 if *asked == Some(expected) {
                     return Ok(());
@@ -311,6 +329,7 @@ impl<L: Read + Write> Session<'_, &mut L> {
                 self.send(&WorkerMessage::NeedScene {
                     job: id,
                     offset: expected,
+                    restart: true,
                 })
             }
             ChunkOutcome::Complete => {

@@ -1,0 +1,126 @@
+//! A master's connection to one worker, whatever carries it.
+//!
+//! A [`Link`] is two byte streams and a way to cut them: TCP sockets, serial ports and
+//! in-process pipes all become one, so the master has one code path for every transport.
+
+use crate::cluster::pipe::PipeEnd;
+use std::fmt;
+use std::io::{Read, Write};
+
+/// What carries a link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkKind {
+    /// A worker thread in this process.
+    InProcess,
+    /// A TCP connection.
+    Tcp,
+    /// A serial port.
+    Serial,
+}
+
+impl fmt::Display for LinkKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            LinkKind::InProcess => "local",
+            LinkKind::Tcp => "tcp",
+            LinkKind::Serial => "serial",
+        })
+    }
+}
+
+/// A connection to one worker.
+pub struct Link {
+    /// How the user knows the worker before it says its name: `local 3`, `10.0.0.7:7415`,
+    /// `/dev/ttyUSB0`.
+    pub address: String,
+    /// What carries it.
+    pub kind: LinkKind,
+    /// Bytes from the worker.
+    pub reader: Box<dyn Read + Send>,
+    /// Bytes to the worker.
+    pub writer: Box<dyn Write + Send>,
+    /// Cuts the link: blocked reads and writes return.
+    pub closer: Box<dyn Fn() + Send + Sync>,
+}
+
+impl fmt::Debug for Link {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Link")
+            .field("address", &self.address)
+            .field("kind", &self.kind)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Link {
+    /// A link over the master's end of an in-process pipe.
+    pub fn from_pipe(address: String, end: PipeEnd) -> Self {
+        let closer = end.closer();
+        let (reader, writer) = end.split();
+        Link {
+            address,
+            kind: LinkKind::InProcess,
+            reader: Box::new(reader),
+            writer: Box::new(writer),
+            closer: Box::new(move || closer.close()),
+        }
+    }
+
+    /// A link over a connected TCP stream (Nagle's algorithm off: frames are small).
+    ///
+    /// # Errors
+    /// If the socket cannot be configured or duplicated.
+    pub fn from_tcp(address: String, stream: std::net::TcpStream) -> std::io::Result<Self> {
+        stream.set_nodelay(true)?;
+        let reader = stream.try_clone()?;
+        let closer = stream.try_clone()?;
+        Ok(Link {
+            address,
+            kind: LinkKind::Tcp,
+            reader: Box::new(std::io::BufReader::with_capacity(1 << 16, reader)),
+            writer: Box::new(stream),
+            closer: Box::new(move || {
+                let _ = closer.shutdown(std::net::Shutdown::Both);
+            }),
+        })
+    }
+
+    /// A link over an open serial port. Its reads time out; the master treats that as "no data
+    /// yet". Closing stops the master's reader at its next time-out.
+    ///
+    /// # Errors
+    /// If the port cannot be duplicated.
+    pub fn from_serial(
+        address: String,
+        port: strahl_serial::SerialPort,
+    ) -> Result<Self, strahl_serial::Error> {
+        let reader = port.try_clone_native()?;
+        let closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let flag = std::sync::Arc::clone(&closed);
+        Ok(Link {
+            address,
+            kind: LinkKind::Serial,
+            reader: Box::new(ClosableReader {
+                inner: reader,
+                closed,
+            }),
+            writer: Box::new(port),
+            closer: Box::new(move || flag.store(true, std::sync::atomic::Ordering::Relaxed)),
+        })
+    }
+}
+
+/// A reader that reports end of stream once closed (for ports whose reads cannot be cut).
+struct ClosableReader<R> {
+    inner: R,
+    closed: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl<R: Read> Read for ClosableReader<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        if self.closed.load(std::sync::atomic::Ordering::Relaxed) {
+            return Ok(0);
+        }
+        self.inner.read(buf)
+    }
+}

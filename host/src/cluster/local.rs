@@ -1,0 +1,70 @@
+//! Worker threads in this process: the default executor of `strahl render`.
+//!
+//! Each thread runs the core's worker loop over an in-process [`pipe`](crate::cluster::pipe),
+//! so a local render goes through the same scheduler, frames and checks as a cluster render.
+//! The threads share the master's prepared scene through a pre-filled
+//! [`SceneCache`]: they answer the job with `Ready` at once, and nothing is built twice.
+
+use crate::cluster::link::Link;
+use crate::cluster::master::{run_master, ClusterError, ClusterImage, MasterOptions};
+use crate::cluster::pipe::{duplex, LinkModel, PipeEnd};
+use crate::cluster::prepared::PreparedScene;
+use embedded_io_adapters::std::FromStd;
+use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache};
+use strahl_core::shade::RayCounts;
+
+/// The memory an in-process worker offers a scene: all there is (it shares the master's).
+pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
+
+/// Starts `count` worker threads, each with a copy of `cache`, and returns the master's links to
+/// them (named `local 1`, `local 2`, ...).
+///
+/// # Errors
+/// If a thread cannot be started.
+pub fn spawn_local_workers(count: usize, cache: &SceneCache) -> std::io::Result<Vec<Link>> {
+    (1..=count)
+        .map(|i| {
+            let (master_end, worker_end) = duplex(LinkModel::default(), LinkModel::default());
+            let cache = cache.clone();
+            std::thread::Builder::new()
+                .name(format!("strahl-local-{i}"))
+                .spawn(move || run_local_worker(i, worker_end, cache))?;
+            Ok(Link::from_pipe(format!("local {i}"), master_end))
+        })
+        .collect()
+}
+
+/// One in-process worker: serves one session, then ends.
+fn run_local_worker(index: usize, end: PipeEnd, mut cache: SceneCache) {
+    let name = format!("local-{index}");
+    let node = NodeInfo {
+        name: &name,
+        arch: std::env::consts::ARCH,
+        scene_memory: LOCAL_SCENE_MEMORY,
+    };
+    let mut link = FromStd::new(end);
+    // However the session ends, the master sees it on the link; nothing to report here.
+    let _ = serve(&mut link, &node, &mut cache);
+}
+
+/// Renders `prepared` with `workers` in-process workers (at least 1) through the master, and
+/// calls `on_line(y, rays)` for each finished line.
+///
+/// # Errors
+/// [`ClusterError::Spawn`] if a thread cannot be started; [`ClusterError::AllWorkersLost`]
+/// only if in-process workers fail, which is a bug.
+pub fn render_local(
+    prepared: &PreparedScene,
+    workers: usize,
+    on_line: &(dyn Fn(u32, RayCounts) + Sync),
+) -> Result<ClusterImage, ClusterError> {
+    let links = spawn_local_workers(workers.max(1), &prepared.cache())?;
+    run_master(
+        &prepared.job(),
+        links,
+        None,
+        &MasterOptions::default(),
+        on_line,
+        &|_| {},
+    )
+}

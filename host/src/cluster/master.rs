@@ -1,0 +1,764 @@
+//! The master: hands out lines to workers over their links, collects the results, survives
+//! workers that die, hang or garble frames.
+//!
+//! Each link gets a reader thread (frames in, decoded and checked, as events on one channel)
+//! and a writer thread (frames out, from a queue), so the master's loop never blocks on a slow
+//! or dead peer. The loop runs the handshake of each worker (`Hello`, `Job`, scene chunks,
+//! `Ready`), keeps each ready worker's window of outstanding requests full from the
+//! [`LineScheduler`], and takes results: the first result of a line is used, later copies are
+//! counted and dropped.
+//!
+//! Lost work is found three ways. Workers answer requests in order, so a result for a later
+//! request means the earlier ones were lost on the link. A dropped frame (either side) or a
+//! silent worker gets a `Fence`; its `FenceAck` marks every request sent before it as lost. A
+//! worker silent for the whole time-out, closed, or refusing the job is dropped. Lost lines go
+//! back to the front of the queue.
+
+use crate::cluster::link::Link;
+use crate::cluster::report::WorkerReport;
+use crate::cluster::schedule::LineScheduler;
+use embedded_io_adapters::std::FromStd;
+use std::collections::VecDeque;
+use std::io::{Read, Write};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+use strahl_core::pixel::Pixel;
+use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
+use strahl_core::protocol::scene_blob::SceneBlob;
+use strahl_core::protocol::{
+    frame_len, MAX_HEADER_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
+};
+use strahl_core::shade::RayCounts;
+
+/// How the master schedules and when it gives up on a worker.
+#[derive(Clone, Debug)]
+pub struct MasterOptions {
+    /// Requests each worker has outstanding (1 is the seed's one line at a time).
+    pub window: u32,
+    /// Silence after which the master probes a worker (resends `Hello` or `Job`, or sends a
+    /// `Fence`).
+    pub probe_interval: Duration,
+    /// Silence, with work outstanding, after which a worker counts as hung and is dropped.
+    pub worker_timeout: Duration,
+    /// While more workers may join, how long to wait with none alive before giving up.
+    pub wait_for_workers: Duration,
+    /// The master's name in its `Hello`.
+    pub name: String,
+}
+
+impl Default for MasterOptions {
+    fn default() -> Self {
+        MasterOptions {
+            window: 2,
+            probe_interval: Duration::from_secs(2),
+            worker_timeout: Duration::from_secs(60),
+            wait_for_workers: Duration::from_secs(60),
+            name: "strahl-master".to_string(),
+        }
+    }
+}
+
+/// One render for the master: the scene's encoding and the image size.
+#[derive(Clone, Debug)]
+pub struct ClusterJob {
+    /// Job number, sent with every request.
+    pub id: u32,
+    /// The scene as workers receive it.
+    pub blob: Arc<SceneBlob>,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+/// A finished distributed render.
+#[derive(Clone, Debug)]
+pub struct ClusterImage {
+    /// `width × height` pixels, row-major, top row first.
+    pub pixels: Vec<Pixel>,
+    /// Rays traced for the lines used.
+    pub rays: RayCounts,
+    /// What each worker did, in the order they joined.
+    pub workers: Vec<WorkerReport>,
+}
+
+/// Why a distributed render failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ClusterError {
+    /// Every worker was lost (or none came) before the image was complete.
+    #[error("{}", lost_message(*.finished, *.total, .workers))]
+    AllWorkersLost {
+        /// Lines finished.
+        finished: u32,
+        /// Lines in the image.
+        total: u32,
+        /// Every worker, with why it was lost.
+        workers: Vec<WorkerReport>,
+    },
+    /// A worker thread could not be started.
+    #[error("cannot start a worker thread: {0}")]
+    Spawn(#[from] std::io::Error),
+}
+
+fn lost_message(finished: u32, total: u32, workers: &[WorkerReport]) -> String {
+    if workers.is_empty() {
+        return format!("no worker to render with: 0 of {total} lines finished");
+    }
+    let lost: Vec<String> = workers
+        .iter()
+        .map(|w| {
+            format!(
+                "{} ({})",
+                w.name,
+                w.lost.as_deref().unwrap_or("no longer answering")
+            )
+        })
+        .collect();
+    format!(
+        "all {} workers were lost; {finished} of {total} lines were finished, no image was \
+         written. Lost: {}",
+        workers.len(),
+        lost.join(", ")
+    )
+}
+
+/// A worker's message, decoded and checked in its reader thread, owning its data.
+#[derive(Debug)]
+enum Incoming {
+    Hello {
+        version: u32,
+        name: String,
+        arch: String,
+    },
+    NeedScene {
+        job: u32,
+        offset: u32,
+        restart: bool,
+    },
+    Ready {
+        job: u32,
+    },
+    Line {
+        job: u32,
+        line: u32,
+        rays: RayCounts,
+        pixels: Vec<Pixel>,
+    },
+    FenceAck {
+        seq: u32,
+    },
+    Dropped,
+    Refused {
+        job: u32,
+        reason: Refusal,
+    },
+}
+
+/// What the link threads tell the master loop.
+#[derive(Debug)]
+enum Event {
+    Message(usize, Incoming),
+    BadFrame(usize),
+    Closed(usize, String),
+}
+
+/// Turns a decoded message into an [`Incoming`]; `None` if its pixels are not one line.
+fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
+    Some(match msg {
+        WorkerMessage::Hello(Hello {
+            version,
+            name,
+            arch,
+            ..
+        }) => Incoming::Hello {
+            version,
+            name: name.to_string(),
+            arch: arch.to_string(),
+        },
+        WorkerMessage::NeedScene {
+            job,
+            offset,
+            restart,
+        } => Incoming::NeedScene {
+            job,
+            offset,
+            restart,
+        },
+        WorkerMessage::Ready { job } => Incoming::Ready { job },
+        WorkerMessage::LineResult {
+            job,
+            line,
+            rays,
+            pixels,
+        } => {
+            let mut out = vec![Pixel::default(); width as usize];
+            decode_pixels(pixels, &mut out).ok()?;
+            Incoming::Line {
+                job,
+                line,
+                rays,
+                pixels: out,
+            }
+        }
+        WorkerMessage::FenceAck { seq } => Incoming::FenceAck { seq },
+        WorkerMessage::Dropped { .. } => Incoming::Dropped,
+        WorkerMessage::Refused { job, reason } => Incoming::Refused { job, reason },
+    })
+}
+
+/// The reader thread: frames from one worker become events until the link closes.
+fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &Sender<Event>) {
+    let mut link = FromStd::new(reader);
+    let mut frames = FrameReader::new(vec![
+        0u8;
+        frame_len(
+            width as usize * PIXEL_WIRE_BYTES + MAX_HEADER_LEN
+        )
+    ]);
+    loop {
+        let event = match frames.next(&mut link) {
+            Ok(ReadEvent::Frame(payload)) => match WorkerMessage::decode(payload)
+                .ok()
+                .and_then(|m| incoming(m, width))
+            {
+                Some(msg) => Event::Message(id, msg),
+                None => Event::BadFrame(id),
+            },
+            Ok(ReadEvent::Dropped(_)) => Event::BadFrame(id),
+            Err(LinkError::TimedOut) => continue,
+            Err(LinkError::Closed) => Event::Closed(id, "the connection closed".to_string()),
+            Err(LinkError::Io(kind)) => Event::Closed(id, format!("read error: {kind:?}")),
+        };
+        let last = matches!(event, Event::Closed(..));
+        if events.send(event).is_err() || last {
+            return;
+        }
+    }
+}
+
+/// The writer thread: queued frames go out until the queue closes; then the link is cut.
+fn write_loop(
+    id: usize,
+    mut writer: Box<dyn Write + Send>,
+    frames: &Receiver<Vec<u8>>,
+    events: &Sender<Event>,
+    closer: &(dyn Fn() + Send + Sync),
+) {
+    for frame in frames {
+        if let Err(e) = writer.write_all(&frame).and_then(|()| writer.flush()) {
+            let _ = events.send(Event::Closed(id, format!("write failed: {e}")));
+            break;
+        }
+    }
+    closer();
+}
+
+/// Where a worker is in its session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// `Hello` sent, waiting for the worker's.
+    Greeting,
+    /// `Job` sent; the scene may be in transfer.
+    Loading,
+    /// Ready for line requests.
+    Working,
+    /// Dropped; see the report.
+    Gone,
+}
+
+/// One outstanding line request.
+#[derive(Clone, Copy, Debug)]
+struct Request {
+    line: u32,
+    seq: u32,
+    sent: Instant,
+}
+
+/// The master's view of one worker.
+struct Slot {
+    report: WorkerReport,
+    tx: Option<Sender<Vec<u8>>>,
+    closer: Arc<dyn Fn() + Send + Sync>,
+    state: State,
+    last_heard: Instant,
+    last_probe: Instant,
+    requests: VecDeque<Request>,
+    next_seq: u32,
+    /// The pending fence: its number, and the first request sequence number sent after it.
+    fence: Option<(u32, u32)>,
+    last_result: Option<Instant>,
+    scene_sent_upto: u32,
+}
+
+/// The master loop's state.
+struct Master<'a> {
+    job: &'a ClusterJob,
+    opts: &'a MasterOptions,
+    slots: Vec<Slot>,
+    sched: LineScheduler,
+    pixels: Vec<Pixel>,
+    rays: RayCounts,
+    frames: FrameWriter,
+    events_tx: Sender<Event>,
+    on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
+    log: &'a (dyn Fn(&str) + Sync),
+}
+
+/// Renders `job` with the workers behind `links`, plus any that arrive on `joins` while it
+/// runs. `on_line(y, rays)` is called for each line's first result, `log` with a message for
+/// each worker lost.
+///
+/// # Errors
+/// [`ClusterError::AllWorkersLost`] when no worker is left (and none can join, or none did
+/// within [`MasterOptions::wait_for_workers`]) before the image is complete.
+pub fn run_master(
+    job: &ClusterJob,
+    links: Vec<Link>,
+    joins: Option<&Receiver<Link>>,
+    opts: &MasterOptions,
+    on_line: &(dyn Fn(u32, RayCounts) + Sync),
+    log: &(dyn Fn(&str) + Sync),
+) -> Result<ClusterImage, ClusterError> {
+    let (events_tx, events) = mpsc::channel();
+    let mut m = Master {
+        job,
+        opts,
+        slots: Vec::new(),
+        sched: LineScheduler::new(job.height),
+        pixels: vec![Pixel::default(); job.width as usize * job.height as usize],
+        rays: RayCounts::default(),
+        frames: FrameWriter::new(),
+        events_tx,
+        on_line,
+        log,
+    };
+    for link in links {
+        m.add(link);
+    }
+    let mut joins_open = joins.is_some();
+    let mut alone_since = Instant::now();
+    let mut last_check = Instant::now();
+    let tick = Duration::from_millis(20);
+    while !m.sched.is_complete() {
+        if let Some(joins) = joins {
+            loop {
+                match joins.try_recv() {
+                    Ok(link) => m.add(link),
+                    Err(TryRecvError::Empty) => break,
+                    Err(TryRecvError::Disconnected) => {
+                        joins_open = false;
+                        break;
+                    }
+                }
+            }
+        }
+        match events.recv_timeout(tick) {
+            Ok(event) => m.handle(event),
+            Err(RecvTimeoutError::Timeout) => {}
+            // The master holds a sender itself, so this does not happen.
+            Err(RecvTimeoutError::Disconnected) => break,
+        }
+        let now = Instant::now();
+        if now.duration_since(last_check) >= tick {
+            last_check = now;
+            m.check_timeouts(now);
+        }
+        m.fill_windows();
+        if m.slots.iter().any(|s| s.state != State::Gone) {
+            alone_since = now;
+        } else if !joins_open || now.duration_since(alone_since) >= opts.wait_for_workers {
+            break;
+        }
+    }
+    m.finish()
+}
+
+impl Master<'_> {
+    fn add(&mut self, link: Link) {
+        let id = self.slots.len();
+        let (tx, rx) = mpsc::channel::<Vec<u8>>();
+        let closer: Arc<dyn Fn() + Send + Sync> = Arc::from(link.closer);
+        let report = WorkerReport::new(&link.address, link.kind);
+        let events = self.events_tx.clone();
+        let width = self.job.width;
+        let reader = link.reader;
+        let reader_ok = std::thread::Builder::new()
+            .name(format!("strahl-rx-{id}"))
+            .spawn(move || read_loop(id, reader, width, &events))
+            .is_ok();
+        let events = self.events_tx.clone();
+        let writer = link.writer;
+        let thread_closer = Arc::clone(&closer);
+        let writer_ok = std::thread::Builder::new()
+            .name(format!("strahl-tx-{id}"))
+            .spawn(move || write_loop(id, writer, &rx, &events, &*thread_closer))
+            .is_ok();
+        let now = Instant::now();
+        self.slots.push(Slot {
+            report,
+            tx: Some(tx),
+            closer,
+            state: State::Greeting,
+            last_heard: now,
+            last_probe: now,
+            requests: VecDeque::new(),
+            next_seq: 0,
+            fence: None,
+            last_result: None,
+            scene_sent_upto: 0,
+        });
+        if reader_ok && writer_ok {
+            self.send_hello(id);
+        } else {
+            self.lose(id, "cannot start its link threads".to_string());
+        }
+    }
+
+    fn send(&mut self, id: usize, msg: &MasterMessage<'_>) {
+        let Ok(frame) = self.frames.encode(msg) else {
+            return;
+        };
+        let frame = frame.to_vec();
+        if let Some(tx) = &self.slots[id].tx {
+            // A closed queue means the writer already reported the link closed.
+            let _ = tx.send(frame);
+        }
+    }
+
+    fn send_hello(&mut self, id: usize) {
+        let name = self.opts.name.clone();
+        self.send(
+            id,
+            &MasterMessage::Hello(Hello {
+                version: PROTOCOL_VERSION,
+                name: &name,
+                arch: std::env::consts::ARCH,
+                scene_memory: 0,
+            }),
+        );
+    }
+
+    fn send_job(&mut self, id: usize) {
+        let (job, digest, scene_len) = (self.job.id, self.job.blob.digest, self.job.blob.len());
+        self.send(
+            id,
+            &MasterMessage::Job {
+                job,
+                digest,
+                scene_len,
+            },
+        );
+    }
+
+    fn send_fence(&mut self, id: usize) {
+        let slot = &mut self.slots[id];
+        let seq = slot.next_seq;
+        slot.next_seq += 1;
+        slot.fence = Some((seq, seq));
+        self.send(id, &MasterMessage::Fence { seq });
+    }
+
+    fn handle(&mut self, event: Event) {
+        let id = match &event {
+            Event::Message(id, _) | Event::BadFrame(id) | Event::Closed(id, _) => *id,
+        };
+        if self.slots[id].state == State::Gone {
+            return;
+        }
+        let now = Instant::now();
+        match event {
+            Event::Closed(_, reason) => self.lose(id, reason),
+            Event::BadFrame(_) => {
+                self.slots[id].last_heard = now;
+                self.slots[id].report.frames_dropped += 1;
+                self.fence_after_loss(id);
+            }
+            Event::Message(_, msg) => {
+                self.slots[id].last_heard = now;
+                self.take(id, msg, now);
+            }
+        }
+    }
+
+    /// After a frame was lost on a working worker's link, asks which requests survived.
+    fn fence_after_loss(&mut self, id: usize) {
+        let slot = &self.slots[id];
+        if slot.state == State::Working && slot.fence.is_none() {
+            self.send_fence(id);
+        }
+    }
+
+    fn take(&mut self, id: usize, msg: Incoming, now: Instant) {
+        let job = self.job.id;
+        match msg {
+            Incoming::Hello {
+                version,
+                name,
+                arch,
+            } => {
+                if self.slots[id].state != State::Greeting {
+                    return;
+                }
+                if version != PROTOCOL_VERSION {
+                    return self.lose(
+                        id,
+                        format!(
+                            "it speaks protocol version {version}, this master speaks version \
+                             {PROTOCOL_VERSION}"
+                        ),
+                    );
+                }
+                let slot = &mut self.slots[id];
+                slot.report.name = name;
+                slot.report.arch = arch;
+                slot.state = State::Loading;
+                self.send_job(id);
+            }
+            Incoming::NeedScene {
+                job: j,
+                offset,
+                restart,
+            } if j == job => {
+                let len = self.job.blob.len();
+                let slot = &mut self.slots[id];
+                if slot.state == State::Greeting {
+                    slot.state = State::Loading;
+                }
+                if restart || offset > slot.scene_sent_upto {
+                    slot.scene_sent_upto = offset;
+                }
+                let until = len.min(offset.saturating_add(2 * SCENE_WINDOW));
+                let blob = Arc::clone(&self.job.blob);
+                let digest = blob.digest;
+                while self.slots[id].scene_sent_upto < until {
+                    let at = self.slots[id].scene_sent_upto;
+                    let bytes = blob.chunk_at(at);
+                    if bytes.is_empty() {
+                        break;
+                    }
+                    self.slots[id].scene_sent_upto = at + bytes.len() as u32;
+                    self.send(
+                        id,
+                        &MasterMessage::SceneChunk {
+                            digest,
+                            offset: at,
+                            bytes,
+                        },
+                    );
+                }
+            }
+            Incoming::Ready { job: j } if j == job => {
+                let slot = &mut self.slots[id];
+                if matches!(slot.state, State::Greeting | State::Loading) {
+                    slot.state = State::Working;
+                }
+            }
+            Incoming::Line {
+                job: j,
+                line,
+                rays,
+                pixels,
+            } if j == job && line < self.job.height => self.take_line(id, line, rays, &pixels, now),
+            Incoming::FenceAck { seq } => {
+                let slot = &mut self.slots[id];
+                if let Some((fence, upto)) = slot.fence {
+                    if fence == seq {
+                        slot.fence = None;
+                        let lost: Vec<u32> = slot
+                            .requests
+                            .iter()
+                            .filter(|r| r.seq < upto)
+                            .map(|r| r.line)
+                            .collect();
+                        slot.requests.retain(|r| r.seq >= upto);
+                        self.release(id, &lost);
+                    }
+                }
+            }
+            Incoming::Dropped => {
+                self.slots[id].report.frames_dropped += 1;
+                self.fence_after_loss(id);
+            }
+            Incoming::Refused { job: j, reason } if j == job => {
+                self.lose(id, format!("it refused the job: {}", refusal_text(reason)));
+            }
+            // Messages about another job (an earlier one), or a line outside the image.
+            Incoming::NeedScene { .. }
+            | Incoming::Ready { .. }
+            | Incoming::Line { .. }
+            | Incoming::Refused { .. } => {
+                self.slots[id].report.frames_dropped += 1;
+            }
+        }
+    }
+
+    fn take_line(&mut self, id: usize, line: u32, rays: RayCounts, pixels: &[Pixel], now: Instant) {
+        let slot = &mut self.slots[id];
+        let position = slot.requests.iter().position(|r| r.line == line);
+        let mut lost = Vec::new();
+        let mut started = slot.last_result;
+        if let Some(i) = position {
+            // Requests are answered in order: those before this one were lost.
+            lost.extend(slot.requests.drain(..i).map(|r| r.line));
+            if let Some(r) = slot.requests.pop_front() {
+                started = Some(started.map_or(r.sent, |t| t.max(r.sent)));
+            }
+        }
+        if let Some(t) = started {
+            slot.report.busy += now.saturating_duration_since(t);
+        }
+        slot.last_result = Some(now);
+        slot.report.rays += rays;
+        if self.sched.complete(line, position.is_some()) {
+            let w = self.job.width as usize;
+            let at = line as usize * w;
+            self.pixels[at..at + w].copy_from_slice(pixels);
+            self.rays += rays;
+            self.slots[id].report.lines += 1;
+            (self.on_line)(line, rays);
+        } else {
+            self.slots[id].report.duplicates += 1;
+        }
+        self.release(id, &lost);
+    }
+
+    /// Gives `lines` of worker `id` back to the scheduler.
+    fn release(&mut self, id: usize, lines: &[u32]) {
+        for &line in lines {
+            if self.sched.release(line) {
+                self.slots[id].report.reissued += 1;
+            }
+        }
+    }
+
+    /// Drops worker `id`: its lines go back to the queue and its link is cut.
+    fn lose(&mut self, id: usize, reason: String) {
+        let slot = &mut self.slots[id];
+        if slot.state == State::Gone {
+            return;
+        }
+        slot.state = State::Gone;
+        slot.tx = None;
+        (slot.closer)();
+        let lines: Vec<u32> = slot.requests.drain(..).map(|r| r.line).collect();
+        let before = slot.report.reissued;
+        self.release(id, &lines);
+        let slot = &mut self.slots[id];
+        let requeued = slot.report.reissued - before;
+        (self.log)(&format!(
+            "worker {} ({}) lost: {reason}; {requeued} line{} re-queued",
+            slot.report.name,
+            slot.report.address,
+            if requeued == 1 { "" } else { "s" }
+        ));
+        slot.report.lost = Some(reason);
+    }
+
+    fn check_timeouts(&mut self, now: Instant) {
+        for id in 0..self.slots.len() {
+            let slot = &self.slots[id];
+            let waiting_on_it = match slot.state {
+                State::Gone => continue,
+                State::Working => !slot.requests.is_empty(),
+                State::Greeting | State::Loading => true,
+            };
+            if !waiting_on_it {
+                continue;
+            }
+            let silence = now.duration_since(slot.last_heard);
+            if silence >= self.opts.worker_timeout {
+                self.lose(id, format!("no answer for {:.1} s", silence.as_secs_f64()));
+                continue;
+            }
+            if silence < self.opts.probe_interval
+                || now.duration_since(slot.last_probe) < self.opts.probe_interval
+            {
+                continue;
+            }
+            self.slots[id].last_probe = now;
+            match self.slots[id].state {
+                State::Greeting => self.send_hello(id),
+                State::Loading => self.send_job(id),
+                State::Working => self.send_fence(id),
+                State::Gone => {}
+            }
+        }
+    }
+
+    fn fill_windows(&mut self) {
+        let now = Instant::now();
+        for id in 0..self.slots.len() {
+            if self.slots[id].state != State::Working {
+                continue;
+            }
+            while self.slots[id].requests.len() < self.opts.window.max(1) as usize {
+                let Some(line) = self.sched.next_waiting() else {
+                    break;
+                };
+                self.request(id, line, now);
+            }
+            if self.slots[id].requests.is_empty() {
+                let slot = &self.slots[id];
+                let held = |l: u32| slot.requests.iter().any(|r| r.line == l);
+                if let Some(line) = self.sched.next_copy(held) {
+                    self.request(id, line, now);
+                }
+            }
+        }
+    }
+
+    fn request(&mut self, id: usize, line: u32, now: Instant) {
+        let slot = &mut self.slots[id];
+        let seq = slot.next_seq;
+        slot.next_seq += 1;
+        if slot.requests.is_empty() {
+            // An idle worker's silence so far is not a hang.
+            slot.last_heard = now;
+        }
+        slot.requests.push_back(Request {
+            line,
+            seq,
+            sent: now,
+        });
+        let job = self.job.id;
+        self.send(id, &MasterMessage::RenderLine { job, line });
+    }
+
+    fn finish(mut self) -> Result<ClusterImage, ClusterError> {
+        for id in 0..self.slots.len() {
+            if self.slots[id].state != State::Gone {
+                self.send(id, &MasterMessage::EndSession);
+            }
+            // Dropping the queue lets the writer send what is queued, then cut the link.
+            self.slots[id].tx = None;
+        }
+        let workers: Vec<WorkerReport> = self.slots.into_iter().map(|s| s.report).collect();
+        if !self.sched.is_complete() {
+            return Err(ClusterError::AllWorkersLost {
+                finished: self.sched.finished(),
+                total: self.job.height,
+                workers,
+            });
+        }
+        Ok(ClusterImage {
+            pixels: self.pixels,
+            rays: self.rays,
+            workers,
+        })
+    }
+}
+
+/// A refusal in words.
+pub fn refusal_text(reason: Refusal) -> String {
+    match reason {
+        Refusal::SceneTooLarge { limit } => {
+            format!("the scene needs more than the {limit} bytes it can give")
+        }
+        Refusal::BadScene(e) => format!("the scene is not renderable: {e}"),
+        Refusal::CorruptScene => "the scene arrived corrupted".to_string(),
+        Refusal::UnknownJob => "it does not know the job".to_string(),
+        Refusal::LineOutOfRange => "a line outside the image was requested".to_string(),
+    }
+}

@@ -1,0 +1,20 @@
+//! Distributed rendering: the master, its scheduler, the links to workers, and the in-process
+//! workers and simulated cluster that use the same protocol.
+//!
+//! - [`schedule`]: which line goes to which worker (no I/O, no clock).
+//! - [`master`]: the master loop over any set of [`link::Link`]s.
+//! - [`link`]: a connection to one worker over TCP, a serial port or an in-process [`pipe`].
+//! - [`pipe`]: in-process byte pipes, with a link model (latency, bandwidth, bit flips).
+//! - [`prepared`]: a scene built once and encoded once, for the master and in-process workers.
+//! - [`local`]: worker threads in this process, the default executor of `strahl render`.
+//! - [`sim`]: the simulated cluster: many in-process workers with speeds and seeded faults.
+//! - [`report`]: what each worker did.
+
+pub mod link;
+pub mod local;
+pub mod master;
+pub mod pipe;
+pub mod prepared;
+pub mod report;
+pub mod schedule;
+pub mod sim;

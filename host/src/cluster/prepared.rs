@@ -1,0 +1,65 @@
+//! A scene prepared once for a distributed render: built for the master and in-process workers,
+//! encoded for the others.
+
+use crate::cluster::master::ClusterJob;
+use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::Arc;
+use strahl_core::error::{ProtocolError, SceneError};
+use strahl_core::octree::OctreeParams;
+use strahl_core::protocol::scene_blob::SceneBlob;
+use strahl_core::protocol::worker::SceneCache;
+use strahl_core::scene::{Scene, SceneDesc};
+
+/// Why a scene cannot be prepared.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum PrepareError {
+    /// The scene is not renderable.
+    #[error("{0}")]
+    Scene(SceneError),
+    /// The scene cannot be encoded for the workers.
+    #[error("the scene cannot be sent to workers: {0}")]
+    Protocol(ProtocolError),
+}
+
+/// A built scene and its encoding.
+#[derive(Clone, Debug)]
+pub struct PreparedScene {
+    /// The scene, shared with in-process workers.
+    pub scene: Arc<Scene>,
+    /// Its encoding, sent to other workers.
+    pub blob: Arc<SceneBlob>,
+}
+
+/// Job numbers: distinct within a process, so a worker never mixes two renders' requests.
+static NEXT_JOB: AtomicU32 = AtomicU32::new(1);
+
+impl PreparedScene {
+    /// Builds the scene with `params` and encodes it.
+    ///
+    /// # Errors
+    /// [`PrepareError::Scene`] if the scene is not valid, [`PrepareError::Protocol`] if it is
+    /// too large to send.
+    pub fn new(desc: &SceneDesc, params: &OctreeParams) -> Result<Self, PrepareError> {
+        let scene = Scene::build(desc, params).map_err(PrepareError::Scene)?;
+        let blob = SceneBlob::encode(desc, params).map_err(PrepareError::Protocol)?;
+        Ok(PreparedScene {
+            scene: Arc::new(scene),
+            blob: Arc::new(blob),
+        })
+    }
+
+    /// A worker cache that already holds this scene.
+    pub fn cache(&self) -> SceneCache {
+        SceneCache::with_scene(self.blob.digest, Arc::clone(&self.scene))
+    }
+
+    /// A new job rendering this scene.
+    pub fn job(&self) -> ClusterJob {
+        ClusterJob {
+            id: NEXT_JOB.fetch_add(1, Ordering::Relaxed),
+            blob: Arc::clone(&self.blob),
+            width: self.scene.settings.width,
+            height: self.scene.settings.height,
+        }
+    }
+}

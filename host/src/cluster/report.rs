@@ -1,0 +1,95 @@
+//! What each worker did in a render: the per-worker table of the end summary.
+
+use crate::cluster::link::LinkKind;
+use crate::progress::format_ray_rate;
+use std::fmt;
+use std::time::Duration;
+use strahl_core::shade::RayCounts;
+
+/// One worker's share of a render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkerReport {
+    /// The name it gave in its `Hello` (its address until then).
+    pub name: String,
+    /// How the master reached it.
+    pub address: String,
+    /// What carried the link.
+    pub kind: LinkKind,
+    /// Its architecture, as it said.
+    pub arch: String,
+    /// Lines whose result from this worker was the first and was used.
+    pub lines: u32,
+    /// Results that arrived after another worker's (copies that lost the race).
+    pub duplicates: u32,
+    /// Rays in the lines it delivered (used or not).
+    pub rays: RayCounts,
+    /// Time it spent on lines: from each request (or the previous result, if later) to the
+    /// result.
+    pub busy: Duration,
+    /// Lines taken back from it (lost requests or results, or the worker lost) and re-queued.
+    pub reissued: u32,
+    /// Frames that failed their CRC or checks, in either direction.
+    pub frames_dropped: u32,
+    /// Why the master stopped using it, if it did before the end.
+    pub lost: Option<String>,
+}
+
+impl WorkerReport {
+    /// An empty report for a worker at `address`.
+    pub fn new(address: &str, kind: LinkKind) -> Self {
+        WorkerReport {
+            name: address.to_string(),
+            address: address.to_string(),
+            kind,
+            arch: String::new(),
+            lines: 0,
+            duplicates: 0,
+            rays: RayCounts::default(),
+            busy: Duration::ZERO,
+            reissued: 0,
+            frames_dropped: 0,
+            lost: None,
+        }
+    }
+}
+
+/// The per-worker table printed after a render.
+pub struct WorkerTable<'a>(pub &'a [WorkerReport]);
+
+impl fmt::Display for WorkerTable<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        writeln!(
+            f,
+            "{:<24} {:<7} {:>6} {:>5} {:>12} {:>8} {:>15} {:>8} {:>7}  status",
+            "worker", "link", "lines", "dup", "rays", "busy s", "rate", "reissued", "dropped"
+        )?;
+        for w in self.0 {
+            let secs = w.busy.as_secs_f64();
+            writeln!(
+                f,
+                "{:<24} {:<7} {:>6} {:>5} {:>12} {:>8.2} {:>15} {:>8} {:>7}  {}",
+                truncate(&w.name, 24),
+                w.kind.to_string(),
+                w.lines,
+                w.duplicates,
+                w.rays.total(),
+                secs,
+                format_ray_rate(w.rays.total(), secs),
+                w.reissued,
+                w.frames_dropped,
+                w.lost.as_deref().unwrap_or("ok"),
+            )?;
+        }
+        Ok(())
+    }
+}
+
+fn truncate(s: &str, n: usize) -> String {
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        let mut t: String = s.chars().take(n - 1).collect();
+        t.push('~');
+        t
+    }
+}

@@ -1,0 +1,163 @@
+//! Which line goes to which worker: the bookkeeping of the master, with no I/O and no clock.
+//!
+//! Lines wait in a queue, top to bottom. A worker with room in its window takes the next waiting
+//! line. When none is waiting, an idle worker gets a copy of a line still in flight (the one with
+//! the fewest holders, then the lowest number), so one slow or dead worker cannot hold up the end
+//! of the image; the first result wins ([`LineScheduler::complete`] says whether it was first).
+//! A line given up by its last holder (worker lost, request lost) goes back to the front of the
+//! queue. The simulated cluster's discrete-event model drives this same type.
+
+use std::collections::VecDeque;
+
+/// The state of every line of one image.
+#[derive(Clone, Debug)]
+pub struct LineScheduler {
+    /// Workers currently holding each line (a request is out).
+    holders: Vec<u32>,
+    done: Vec<bool>,
+    waiting: VecDeque<u32>,
+    finished: u32,
+}
+
+impl LineScheduler {
+    /// A scheduler for `height` lines, all waiting.
+    pub fn new(height: u32) -> Self {
+        LineScheduler {
+            holders: vec![0; height as usize],
+            done: vec![false; height as usize],
+            waiting: (0..height).collect(),
+            finished: 0,
+        }
+    }
+
+    /// Lines whose result has arrived.
+    pub fn finished(&self) -> u32 {
+        self.finished
+    }
+
+    /// Whether every line has its result.
+    pub fn is_complete(&self) -> bool {
+        self.finished as usize == self.done.len()
+    }
+
+    /// Whether line `line` has its result.
+    pub fn is_done(&self, line: u32) -> bool {
+        self.done.get(line as usize).copied().unwrap_or(false)
+    }
+
+    /// Takes the next waiting line, if any, for a worker.
+    pub fn next_waiting(&mut self) -> Option<u32> {
+        while let Some(line) = self.waiting.pop_front() {
+            // A line can be finished while waiting (a lost holder's result came in after all).
+            if !self.done[line as usize] {
+                self.holders[line as usize] += 1;
+                return Some(line);
+            }
+        }
+        None
+    }
+
+    /// A copy of a line in flight for an idle worker that does not hold it (`held` says which
+    /// lines it holds): the fewest holders first, then the lowest line. `None` if nothing is in
+    /// flight that the worker does not already hold.
+    pub fn next_copy(&mut self, held: impl Fn(u32) -> bool) -> Option<u32> {
+        let mut best: Option<(u32, u32)> = None;
+        for (line, (&h, &d)) in self.holders.iter().zip(&self.done).enumerate() {
+            let line = line as u32;
+            if h == 0 || d || held(line) {
+                continue;
+            }
+            if best.is_none_or(|(bh, _)| h < bh) {
+                best = Some((h, line));
+            }
+        }
+        let (_, line) = best?;
+        self.holders[line as usize] += 1;
+        Some(line)
+    }
+
+    /// Records a result for `line` from one of its holders (or a former holder). Returns `true`
+    /// if it is the first result, whose pixels are to be used.
+    pub fn complete(&mut self, line: u32, was_holder: bool) -> bool {
+        let i = line as usize;
+        if i >= self.done.len() {
+            return false;
+        }
+        if was_holder {
+            self.holders[i] = self.holders[i].saturating_sub(1);
+        }
+        if self.done[i] {
+            return false;
+        }
+        self.done[i] = true;
+        self.finished += 1;
+        true
+    }
+
+    /// A holder gives `line` up without a result. Returns `true` if the line went back to the
+    /// queue (no other holder, not finished).
+    pub fn release(&mut self, line: u32) -> bool {
+        let i = line as usize;
+        if i >= self.done.len() {
+            return false;
+        }
+        self.holders[i] = self.holders[i].saturating_sub(1);
+        if self.holders[i] == 0 && !self.done[i] {
+            self.waiting.push_front(line);
+            return true;
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hands_out_lines_in_order_then_copies() {
+        let mut s = LineScheduler::new(3);
+        assert_eq!(s.next_waiting(), Some(0));
+        assert_eq!(s.next_waiting(), Some(1));
+        assert_eq!(s.next_waiting(), Some(2));
+        assert_eq!(s.next_waiting(), None);
+        // Worker A holds 0 and 1; its copy is line 2.
+        assert_eq!(s.next_copy(|l| l < 2), Some(2));
+        // Line 2 now has two holders; the next copy goes to line 0 (fewest holders, lowest).
+        assert_eq!(s.next_copy(|_| false), Some(0));
+        assert!(s.complete(2, true));
+        assert!(
+            !s.complete(2, true),
+            "the second result of a line is a duplicate"
+        );
+        assert!(s.complete(0, true));
+        assert!(!s.release(0), "a finished line is not re-queued");
+        assert!(s.release(1), "line 1's only holder gave it up");
+        assert_eq!(s.next_waiting(), Some(1));
+        assert!(s.complete(1, true));
+        assert!(s.is_complete());
+        assert_eq!(s.next_copy(|_| false), None);
+    }
+
+    #[test]
+    fn released_line_goes_to_the_front() {
+        let mut s = LineScheduler::new(5);
+        let a = s.next_waiting();
+        let b = s.next_waiting();
+        assert_eq!((a, b), (Some(0), Some(1)));
+        assert!(s.release(1));
+        assert_eq!(s.next_waiting(), Some(1));
+        assert_eq!(s.next_waiting(), Some(2));
+    }
+
+    #[test]
+    fn a_late_result_of_a_released_line_still_counts() {
+        let mut s = LineScheduler::new(2);
+        assert_eq!(s.next_waiting(), Some(0));
+        assert!(s.release(0));
+        assert!(s.complete(0, false));
+        // The re-queued copy of line 0 is skipped.
+        assert_eq!(s.next_waiting(), Some(1));
+        assert_eq!(s.finished(), 1);
+    }
+}

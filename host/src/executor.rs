@@ -1,0 +1,256 @@
+//! Which workers a render uses, from the command line: in-process threads, TCP workers that
+//! listen (`--worker`, `--hosts`), TCP workers that dial in (`--listen`, `--launch`), and serial
+//! workers (`--serial`), in any mix.
+//!
+//! [`start_workers`] connects or starts them all and hands back their links for the master, plus
+//! the channel on which dialling workers arrive and the launched processes (killed when dropped).
+
+use crate::cluster::link::Link;
+use crate::cluster::local::spawn_local_workers;
+use crate::cluster::prepared::PreparedScene;
+use crate::hosts::{read_hosts_file, HostEntry};
+use anyhow::{anyhow, bail, Context as _};
+use clap::Args;
+use std::net::{SocketAddr, TcpListener};
+use std::path::PathBuf;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{self, Receiver};
+use std::sync::Arc;
+use std::time::Duration;
+
+/// The command-line options that choose a render's workers and tune the master.
+#[derive(Clone, Debug, Default, Args)]
+pub struct ClusterArgs {
+    /// A TCP worker listening at HOST[:PORT] (default port 7415); repeatable.
+    #[arg(long = "worker", value_name = "HOST[:PORT]")]
+    pub worker: Vec<String>,
+
+    /// A hosts file (one HOST[:PORT] per line, `#` comments): the workers to dial, or with
+    /// --launch the hosts to start workers on.
+    #[arg(long, value_name = "FILE")]
+    pub hosts: Option<PathBuf>,
+
+    /// Accept workers that dial in (`strahl worker --connect`) at HOST[:PORT]; port 0 picks a
+    /// free one.
+    #[arg(long, value_name = "HOST[:PORT]")]
+    pub listen: Option<String>,
+
+    /// Start one worker per hosts-file line with this shell command; `{host}` is replaced by the
+    /// host, `{master}` by the address workers dial (e.g. `ssh {host} strahl worker --connect
+    /// {master}`). Listens on --listen, or on a free port of all interfaces.
+    #[arg(long, value_name = "TEMPLATE", requires = "hosts")]
+    pub launch: Option<String>,
+
+    /// A serial worker at PATH[:BAUD] (default 115200 baud); repeatable.
+    #[arg(long = "serial", value_name = "PATH[:BAUD]")]
+    pub serial: Vec<String>,
+
+    /// Line requests each worker has outstanding; 1 is the seed's one line at a time.
+    #[arg(long, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub window: u32,
+
+    /// Seconds a worker with work may stay silent before it counts as hung and its lines go to
+    /// others; also how long a listening master waits with no worker.
+    #[arg(long, value_name = "SECS", default_value_t = 60.0, value_parser = positive_seconds)]
+    pub worker_timeout: f64,
+}
+
+/// Parses a positive, finite number of seconds.
+///
+/// # Errors
+/// A message if the text is not such a number.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e6 => Ok(v),
+        _ => Err("expected a number of seconds greater than 0".to_string()),
+    }
+}
+
+impl ClusterArgs {
+    /// Whether any worker outside this process is named.
+    pub fn has_remote(&self) -> bool {
+        !self.worker.is_empty()
+            || self.hosts.is_some()
+            || self.listen.is_some()
+            || !self.serial.is_empty()
+    }
+}
+
+/// A launched worker process, killed (if still running) when dropped.
+#[derive(Debug)]
+pub struct LaunchedWorker {
+    /// The host it was launched for.
+    pub host: String,
+    child: Child,
+}
+
+impl Drop for LaunchedWorker {
+    fn drop(&mut self) {
+        // A worker that served its session has exited by now; give it a moment, then stop it.
+        for _ in 0..20 {
+            if matches!(self.child.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(25));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Stops the accepting thread when dropped.
+#[derive(Debug)]
+pub struct Acceptor {
+    /// The address workers dial.
+    pub address: SocketAddr,
+    stop: Arc<AtomicBool>,
+}
+
+impl Drop for Acceptor {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+}
+
+/// The workers of a render.
+#[derive(Debug, Default)]
+pub struct Workers {
+    /// Links to the workers that are there from the start.
+    pub links: Vec<Link>,
+    /// Where workers that dial in arrive, while the master listens.
+    pub joins: Option<Receiver<Link>>,
+    /// The listening socket's thread.
+    pub acceptor: Option<Acceptor>,
+    /// Workers started with --launch.
+    pub launched: Vec<LaunchedWorker>,
+}
+
+/// Starts `local` in-process workers and connects, launches or opens every worker `args` names.
+/// A named worker that cannot be reached is reported through `warn` and left out.
+///
+/// # Errors
+/// A bad hosts file, address or port spec, a listen address that cannot be bound, a launch
+/// command that cannot be started, or no worker at all.
+pub fn start_workers(
+    args: &ClusterArgs,
+    local: usize,
+    prepared: &PreparedScene,
+    warn: &dyn Fn(&str),
+) -> anyhow::Result<Workers> {
+    let mut w = Workers {
+        links: spawn_local_workers(local, &prepared.cache())
+            .context("cannot start in-process workers")?,
+        ..Workers::default()
+    };
+    let hosts: Vec<HostEntry> = match &args.hosts {
+        Some(path) => read_hosts_file(path)?,
+        None => Vec::new(),
+    };
+    let mut dial: Vec<String> = Vec::new();
+    for spec in &args.worker {
+        dial.push(strahl_tcp::parse_endpoint(spec).map_err(|e| anyhow!("--worker {e}"))?);
+    }
+    if args.launch.is_none() {
+        dial.extend(hosts.iter().map(|h| h.endpoint.clone()));
+    }
+    let mut serial = Vec::new();
+    for spec in &args.serial {
+        serial.push(strahl_serial::parse_port_spec(spec).map_err(|e| anyhow!("--serial {e}"))?);
+    }
+
+    if args.listen.is_some() || args.launch.is_some() {
+        let spec = args.listen.as_deref().unwrap_or("0.0.0.0:0");
+        let endpoint =
+            strahl_tcp::parse_listen_address(spec).map_err(|e| anyhow!("--listen {e}"))?;
+        let (acceptor, joins) = accept_workers(&endpoint)?;
+        if let Some(template) = &args.launch {
+            let master = if acceptor.address.ip().is_unspecified() {
+                format!("{}:{}", crate::worker::host_name(), acceptor.address.port())
+            } else {
+                acceptor.address.to_string()
+            };
+            for h in &hosts {
+                w.launched.push(launch(template, h, &master)?);
+            }
+        }
+        w.acceptor = Some(acceptor);
+        w.joins = Some(joins);
+    }
+
+    for endpoint in dial {
+        match strahl_tcp::connect(&endpoint, Duration::from_secs(5))
+            .and_then(|s| Link::from_tcp(endpoint.clone(), s))
+        {
+            Ok(link) => w.links.push(link),
+            Err(e) => warn(&format!(
+                "cannot reach worker {endpoint}: {e}; going on without it"
+            )),
+        }
+    }
+    for (path, baud) in serial {
+        match strahl_serial::open(&path, baud)
+            .and_then(|port| Link::from_serial(path.clone(), port))
+        {
+            Ok(link) => w.links.push(link),
+            Err(e) => warn(&format!(
+                "cannot open serial worker {path}: {e}; going on without it"
+            )),
+        }
+    }
+    if w.links.is_empty() && w.joins.is_none() {
+        bail!("no worker could be reached, so nothing can be rendered");
+    }
+    Ok(w)
+}
+
+/// Listens at `endpoint` and sends a link for each worker that connects, until dropped.
+fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> {
+    let listener =
+        TcpListener::bind(endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
+    listener.set_nonblocking(true)?;
+    let address = listener.local_addr()?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let (tx, rx) = mpsc::channel();
+    let flag = Arc::clone(&stop);
+    std::thread::Builder::new()
+        .name("strahl-accept".to_string())
+        .spawn(move || {
+            while !flag.load(Ordering::Relaxed) {
+                match listener.accept() {
+                    Ok((stream, peer)) => {
+                        let link = stream
+                            .set_nonblocking(false)
+                            .and_then(|()| Link::from_tcp(peer.to_string(), stream));
+                        if let Ok(link) = link {
+                            if tx.send(link).is_err() {
+                                return;
+                            }
+                        }
+                    }
+                    Err(_) => std::thread::sleep(Duration::from_millis(20)),
+                }
+            }
+        })
+        .context("cannot start the accepting thread")?;
+    Ok((Acceptor { address, stop }, rx))
+}
+
+/// Starts the launch command for one host.
+fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<LaunchedWorker> {
+    let command = template
+        .replace("{host}", &host.host)
+        .replace("{master}", master);
+    let child = Command::new("sh")
+        .arg("-c")
+        .arg(&command)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .spawn()
+        .with_context(|| format!("cannot start `{command}` for host {}", host.host))?;
+    Ok(LaunchedWorker {
+        host: host.host.clone(),
+        child,
+    })
+}

@@ -1,0 +1,100 @@
+//! FART's hosts file: the machines a master uses, one `host[:port]` per line.
+//!
+//! `#` starts a comment (to the end of the line); blank lines are skipped; surrounding spaces
+//! are ignored. A host without a port gets [`strahl_tcp::DEFAULT_PORT`]. Errors name the line.
+
+use crate::error::LoadError;
+use crate::lines::read_text;
+use std::path::Path;
+
+/// One host of a hosts file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HostEntry {
+    /// `host:port`.
+    pub endpoint: String,
+    /// Just the host part, as written (for `{host}` in a launch template).
+    pub host: String,
+    /// The 1-based line it is on.
+    pub line: usize,
+}
+
+/// Reads and parses a hosts file.
+///
+/// # Errors
+/// [`LoadError::Io`] if it cannot be read, [`LoadError::At`] for a line that is not
+/// `host[:port]`, [`LoadError::File`] if it names no host.
+pub fn read_hosts_file(path: &Path) -> Result<Vec<HostEntry>, LoadError> {
+    let text = read_text(path)?;
+    let hosts = parse_hosts(&text, path)?;
+    if hosts.is_empty() {
+        return Err(LoadError::File {
+            path: path.to_path_buf(),
+            message: "the hosts file names no host".to_string(),
+        });
+    }
+    Ok(hosts)
+}
+
+/// Parses the text of a hosts file read from `path`.
+///
+/// # Errors
+/// [`LoadError::At`] for the first line that is not `host[:port]`.
+pub fn parse_hosts(text: &str, path: &Path) -> Result<Vec<HostEntry>, LoadError> {
+    let mut hosts = Vec::new();
+    for (i, raw) in text.trim_start_matches('\u{feff}').lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let at = |message: String| LoadError::At {
+            path: path.to_path_buf(),
+            line: i + 1,
+            message,
+        };
+        let endpoint = strahl_tcp::parse_endpoint(line).map_err(at)?;
+        let host = match endpoint.rsplit_once(':') {
+            Some((h, _)) => h.trim_start_matches('[').trim_end_matches(']').to_string(),
+            None => endpoint.clone(),
+        };
+        hosts.push(HostEntry {
+            endpoint,
+            host,
+            line: i + 1,
+        });
+    }
+    Ok(hosts)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_hosts_with_comments_and_ports() -> Result<(), LoadError> {
+        let text = "# cluster\nnode1\n  node2:9000  # fast one\n\n[::1]:7\n";
+        let hosts = parse_hosts(text, Path::new("h.txt"))?;
+        let got: Vec<(&str, &str, usize)> = hosts
+            .iter()
+            .map(|h| (h.endpoint.as_str(), h.host.as_str(), h.line))
+            .collect();
+        assert_eq!(
+            got,
+            [
+                ("node1:7415", "node1", 2),
+                ("node2:9000", "node2", 3),
+                ("[::1]:7", "::1", 5)
+            ]
+        );
+        Ok(())
+    }
+
+    #[test]
+    fn bad_line_is_named() {
+        let err = parse_hosts("node1\nnode2:http\n", Path::new("h.txt"))
+            .err()
+            .map(|e| e.to_string());
+        let msg = err.unwrap_or_default();
+        assert!(msg.starts_with("h.txt:2: "), "{msg}");
+        assert!(msg.contains("port"), "{msg}");
+    }
+}

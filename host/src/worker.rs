@@ -1,0 +1,175 @@
+//! `strahl worker`: serve masters over TCP (listening or dialling) or a serial port.
+//!
+//! The worker keeps the last scene it prepared across sessions, so a master that renders the
+//! same scene again (or the next master with it) skips the transfer. A listening or serial
+//! worker outlives its masters: when one ends its session or disappears, it waits for the next.
+//! A dialling worker serves one render and exits, which suits launchers and batch schedulers.
+
+use anyhow::{anyhow, Context as _};
+use clap::{ArgGroup, Args};
+use std::net::TcpListener;
+use std::time::Duration;
+use strahl_core::protocol::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::protocol::MAX_NAME_LEN;
+use strahl_tcp::SessionError;
+
+/// Arguments of `strahl worker`.
+#[derive(Debug, Args)]
+#[command(group(ArgGroup::new("transport").required(true).args(["listen", "connect", "serial"])))]
+pub struct WorkerArgs {
+    /// Listen for masters at HOST[:PORT] (default port 7415; port 0 picks a free one, printed on
+    /// stderr) and serve them one after another.
+    #[arg(long, value_name = "HOST[:PORT]")]
+    pub listen: Option<String>,
+
+    /// Dial the master listening at HOST[:PORT], serve its render, then exit.
+    #[arg(long, value_name = "HOST[:PORT]")]
+    pub connect: Option<String>,
+
+    /// Serve masters on the serial port at PATH.
+    #[arg(long, value_name = "PATH")]
+    pub serial: Option<String>,
+
+    /// Baud rate of the serial port.
+    #[arg(long, value_name = "N", requires = "serial", default_value_t = strahl_serial::DEFAULT_BAUD)]
+    pub baud: u32,
+
+    /// The name this worker gives masters [default: the host name].
+    #[arg(long, value_name = "NAME")]
+    pub name: Option<String>,
+
+    /// Memory in MiB this worker gives a scene; larger scenes are refused [default: the memory
+    /// the system reports available].
+    #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..))]
+    pub memory: Option<u64>,
+
+    /// Stop after serving N sessions (listening and serial workers) [default: never].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
+    pub sessions: Option<u32>,
+
+    /// How long a dialling worker keeps trying to reach its master, in seconds.
+    #[arg(long, value_name = "SECS", default_value_t = 30)]
+    pub patience: u64,
+}
+
+/// The host name, from the kernel or the environment, cut to [`MAX_NAME_LEN`] bytes.
+pub fn host_name() -> String {
+    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "worker".to_string());
+    cut_name(&name)
+}
+
+/// `name` cut to at most [`MAX_NAME_LEN`] bytes on a character boundary.
+pub fn cut_name(name: &str) -> String {
+    let mut end = name.len().min(MAX_NAME_LEN);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    name[..end].to_string()
+}
+
+/// Memory the system reports available (`MemAvailable` in `/proc/meminfo`), if it does.
+fn available_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
+    match outcome {
+        Ok(SessionEnd::Ended) => "the master ended the session".to_string(),
+        Ok(SessionEnd::Closed) => "the master disconnected".to_string(),
+        Err(WorkerError::VersionMismatch { master }) => format!(
+            "the master speaks protocol version {master}, this worker speaks version {}; \
+             session refused",
+            strahl_core::protocol::PROTOCOL_VERSION
+        ),
+        Err(WorkerError::Link(e)) => format!("the link failed: {e:?}"),
+        Err(WorkerError::Encode(e)) => format!("internal error: {e}"),
+    }
+}
+
+fn describe_tcp(outcome: &Result<SessionEnd, SessionError>) -> String {
+    match outcome {
+        Ok(end) => describe(&Ok(*end)),
+        Err(SessionError::Worker(e)) => describe(&Err(*e)),
+        Err(SessionError::Setup(e)) => format!("cannot set up the connection: {e}"),
+    }
+}
+
+/// Runs `strahl worker`.
+///
+/// # Errors
+/// If the address cannot be bound, the master cannot be reached, or the port cannot be opened.
+pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
+    let name = args.name.as_deref().map_or_else(host_name, cut_name);
+    let memory = args
+        .memory
+        .map(|mib| mib.saturating_mul(1 << 20))
+        .or_else(available_memory)
+        .unwrap_or(u64::MAX);
+    let node = NodeInfo {
+        name: &name,
+        arch: std::env::consts::ARCH,
+        scene_memory: memory,
+    };
+    let mut cache = SceneCache::new();
+    if let Some(listen) = &args.listen {
+        let endpoint =
+            strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen: {e}"))?;
+        let listener =
+            TcpListener::bind(&endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
+        let addr = listener.local_addr()?;
+        eprintln!("strahl worker {name}: listening on {addr}");
+        strahl_tcp::serve_listener(
+            &listener,
+            &node,
+            &mut cache,
+            args.sessions,
+            &mut |peer, outcome| {
+                eprintln!(
+                    "strahl worker {name}: master {peer}: {}",
+                    describe_tcp(&outcome)
+                );
+            },
+        )
+        .with_context(|| format!("accepting on {addr}"))?;
+    } else if let Some(master) = &args.connect {
+        let endpoint = strahl_tcp::parse_endpoint(master).map_err(|e| anyhow!("--connect: {e}"))?;
+        let outcome = strahl_tcp::dial(
+            &endpoint,
+            &node,
+            &mut cache,
+            Duration::from_secs(args.patience),
+        );
+        match outcome {
+            Err(SessionError::Setup(e)) => {
+                return Err(anyhow!("cannot reach the master at {endpoint}: {e}"));
+            }
+            Err(SessionError::Worker(e @ WorkerError::VersionMismatch { .. })) => {
+                return Err(anyhow!("{endpoint}: {}", describe(&Err(e))));
+            }
+            other => eprintln!(
+                "strahl worker {name}: master {endpoint}: {}",
+                describe_tcp(&other)
+            ),
+        }
+    } else if let Some(path) = &args.serial {
+        let port = strahl_serial::open(path, args.baud)
+            .with_context(|| format!("cannot open serial port {path}"))?;
+        eprintln!(
+            "strahl worker {name}: serving on {path} at {} baud",
+            args.baud
+        );
+        strahl_serial::serve_port(port, &node, &mut cache, args.sessions, &mut |outcome| {
+            eprintln!("strahl worker {name}: {path}: {}", describe(&outcome));
+        })
+        .map_err(|e| anyhow!("{path}: {}", describe(&Err(e))))?;
+    }
+    Ok(())
+}

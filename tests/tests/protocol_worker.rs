@@ -1,0 +1,925 @@
+//! The worker loop, `strahl_core::protocol::worker::serve`, over an in-memory link.
+//!
+//! Each test scripts what a master sends (frames built with `FrameWriter`, then the end of the
+//! stream), runs `serve` on it, and decodes every frame the worker wrote. It checks the session
+//! (greeting, scene transfer with its window requests, rendering, fences, the end), that the
+//! rendered lines are byte-identical to `render_line` on the same scene, that the scene cache
+//! skips a second transfer, and how the worker answers version mismatches, messages before
+//! `Hello`, requests it cannot serve, scenes too large or corrupt, damaged frames and lost chunks.
+
+use embedded_io::{ErrorKind, ErrorType, Read, Write};
+use glam::Vec3;
+use std::sync::Arc;
+use strahl_core::camera::Camera;
+use strahl_core::error::SceneError;
+use strahl_core::octree::OctreeParams;
+use strahl_core::pixel::Pixel;
+use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
+use strahl_core::protocol::scene_blob::{memory_estimate, SceneBlob};
+use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::protocol::{
+    MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
+};
+use strahl_core::render::render_line;
+use strahl_core::scene::{Scene, SceneDesc};
+use strahl_core::shade::RayCounts;
+
+// ---------------------------------------------------------------------------------------------
+// The link and the script
+// ---------------------------------------------------------------------------------------------
+
+/// A link whose read side hands out a fixed script in pieces, then reports end of stream, and
+/// whose write side collects everything written.
+struct ScriptLink {
+    input: Vec<u8>,
+    pos: usize,
+    piece: usize,
+    output: Vec<u8>,
+}
+
+impl ErrorType for ScriptLink {
+    type Error = ErrorKind;
+}
+
+impl Read for ScriptLink {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, ErrorKind> {
+        let n = self.piece.min(buf.len()).min(self.input.len() - self.pos);
+        buf[..n].copy_from_slice(&self.input[self.pos..self.pos + n]);
+        self.pos += n;
+        Ok(n)
+    }
+}
+
+impl Write for ScriptLink {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, ErrorKind> {
+        self.output.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), ErrorKind> {
+        Ok(())
+    }
+}
+
+/// What the master sends, as frames.
+#[derive(Default)]
+struct Script {
+    writer: FrameWriter,
+    bytes: Vec<u8>,
+}
+
+impl Script {
+    fn send(&mut self, msg: MasterMessage<'_>) -> &mut Self {
+        let frame = self.writer.encode(&msg).expect("a master message encodes");
+        self.bytes.extend_from_slice(frame);
+        self
+    }
+
+    fn raw(&mut self, bytes: &[u8]) -> &mut Self {
+        self.bytes.extend_from_slice(bytes);
+        self
+    }
+
+    fn hello(&mut self) -> &mut Self {
+        self.send(MasterMessage::Hello(Hello {
+            version: PROTOCOL_VERSION,
+            name: "master",
+            arch: "x86_64",
+            scene_memory: 0,
+        }))
+    }
+
+    fn job(&mut self, job: u32, blob: &SceneBlob) -> &mut Self {
+        self.send(MasterMessage::Job {
+            job,
+            digest: blob.digest,
+            scene_len: blob.len(),
+        })
+    }
+
+    /// The chunks of `blob` from `from` to the end, in order.
+    fn chunks_from(&mut self, blob: &SceneBlob, from: u32) -> &mut Self {
+        for offset in (from..blob.len()).step_by(MAX_CHUNK_LEN) {
+            self.chunk(blob, offset);
+        }
+        self
+    }
+
+    fn chunk(&mut self, blob: &SceneBlob, offset: u32) -> &mut Self {
+        self.send(MasterMessage::SceneChunk {
+            digest: blob.digest,
+            offset,
+            bytes: blob.chunk_at(offset),
+        })
+    }
+
+    fn line(&mut self, job: u32, line: u32) -> &mut Self {
+        self.send(MasterMessage::RenderLine { job, line })
+    }
+}
+
+/// A worker message, owned, with the pixels decoded.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum Out {
+    Hello {
+        version: u32,
+        name: String,
+        arch: String,
+        scene_memory: u64,
+    },
+    NeedScene {
+        job: u32,
+        offset: u32,
+        restart: bool,
+    },
+    Ready {
+        job: u32,
+    },
+    Line {
+        job: u32,
+        line: u32,
+        rays: RayCounts,
+        pixels: Vec<Pixel>,
+    },
+    FenceAck {
+        seq: u32,
+    },
+    Dropped {
+        total: u32,
+    },
+    Refused {
+        job: u32,
+        reason: Refusal,
+    },
+}
+
+impl Out {
+    fn from_message(m: WorkerMessage<'_>) -> Self {
+        match m {
+            WorkerMessage::Hello(h) => Out::Hello {
+                version: h.version,
+                name: h.name.to_owned(),
+                arch: h.arch.to_owned(),
+                scene_memory: h.scene_memory,
+            },
+            WorkerMessage::NeedScene {
+                job,
+                offset,
+                restart,
+            } => Out::NeedScene {
+                job,
+                offset,
+                restart,
+            },
+            WorkerMessage::Ready { job } => Out::Ready { job },
+            WorkerMessage::LineResult {
+                job,
+                line,
+                rays,
+                pixels,
+            } => {
+                let mut decoded = vec![Pixel::default(); pixels.len() / PIXEL_WIRE_BYTES];
+                decode_pixels(pixels, &mut decoded).expect("whole pixels");
+                Out::Line {
+                    job,
+                    line,
+                    rays,
+                    pixels: decoded,
+                }
+            }
+            WorkerMessage::FenceAck { seq } => Out::FenceAck { seq },
+            WorkerMessage::Dropped { total } => Out::Dropped { total },
+            WorkerMessage::Refused { job, reason } => Out::Refused { job, reason },
+        }
+    }
+}
+
+/// Everything the worker wrote, decoded; every frame must be intact and a legal message.
+fn decode_output(bytes: &[u8]) -> Vec<Out> {
+    let mut link = bytes;
+    let mut buf = vec![0u8; MAX_FRAME_LEN];
+    let mut reader = FrameReader::new(&mut buf[..]);
+    let mut out = Vec::new();
+    loop {
+        match reader.next(&mut link) {
+            Ok(ReadEvent::Frame(p)) => out.push(Out::from_message(
+                WorkerMessage::decode(p).expect("the worker sends legal messages"),
+            )),
+            Ok(ReadEvent::Dropped(d)) => panic!("the worker wrote a bad frame: {d:?}"),
+            Err(LinkError::Closed) => return out,
+            Err(e) => panic!("reading a slice failed: {e:?}"),
+        }
+    }
+}
+
+const NAME: &str = "test-worker";
+const ARCH: &str = "riscv64";
+const MEMORY: u64 = 256 << 20;
+
+fn node(scene_memory: u64) -> NodeInfo<'static> {
+    NodeInfo {
+        name: NAME,
+        arch: ARCH,
+        scene_memory,
+    }
+}
+
+fn worker_hello(scene_memory: u64) -> Out {
+    Out::Hello {
+        version: PROTOCOL_VERSION,
+        name: NAME.to_owned(),
+        arch: ARCH.to_owned(),
+        scene_memory,
+    }
+}
+
+/// Runs `serve` on the script, fed in pieces of `piece` bytes; returns its result and what the
+/// worker sent.
+fn run_pieces(
+    script: &Script,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+    piece: usize,
+) -> (Result<SessionEnd, WorkerError>, Vec<Out>) {
+    let mut link = ScriptLink {
+        input: script.bytes.clone(),
+        pos: 0,
+        piece,
+        output: Vec::new(),
+    };
+    let result = serve(&mut link, node, cache);
+    (result, decode_output(&link.output))
+}
+
+fn run(
+    script: &Script,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+) -> (Result<SessionEnd, WorkerError>, Vec<Out>) {
+    run_pieces(script, node, cache, 61)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scenes and expectations
+// ---------------------------------------------------------------------------------------------
+
+const WIDTH: u32 = 24;
+const HEIGHT: u32 = 16;
+
+/// The demo room, small, seen by the seed's example camera.
+fn room_desc() -> SceneDesc {
+    let mut desc = strahl_host::generate::room();
+    desc.camera = Camera {
+        position: Vec3::new(0.0, -100.0, 25.0),
+        angle_x_deg: -15.0,
+        angle_z_deg: 0.0,
+        zoom: 1.5,
+    };
+    desc.settings.width = WIDTH;
+    desc.settings.height = HEIGHT;
+    desc
+}
+
+/// A scene as the master holds it: its description, encoding, and prepared form.
+struct Fixture {
+    desc: SceneDesc,
+    blob: SceneBlob,
+    scene: Scene,
+}
+
+fn fixture(desc: SceneDesc) -> Fixture {
+    let params = OctreeParams::default();
+    let blob = SceneBlob::encode(&desc, &params).expect("the scene encodes");
+    let scene = Scene::build(&desc, &params).expect("the scene builds");
+    Fixture { desc, blob, scene }
+}
+
+fn room() -> Fixture {
+    fixture(room_desc())
+}
+
+/// What `render_line` gives for `line` of the fixture's scene, as a worker should answer it.
+fn expected_line(f: &Fixture, job: u32, line: u32) -> Out {
+    let mut pixels = vec![Pixel::default(); f.scene.settings.width as usize];
+    let rays = render_line(&f.scene, line, &mut pixels).expect("the line exists");
+    Out::Line {
+        job,
+        line,
+        rays,
+        pixels,
+    }
+}
+
+/// The worker's answers to the chunks from `from` to the end, sent in order: a window request
+/// each time a window boundary is crossed, and `Ready` after the last chunk.
+fn transfer_answers(blob: &SceneBlob, job: u32, from: u32) -> Vec<Out> {
+    let mut out = Vec::new();
+    for offset in (from..blob.len()).step_by(MAX_CHUNK_LEN) {
+        let end = offset + blob.chunk_at(offset).len() as u32;
+        if end == blob.len() {
+            out.push(Out::Ready { job });
+        } else if end / SCENE_WINDOW != offset / SCENE_WINDOW {
+            out.push(Out::NeedScene {
+                job,
+                offset: end,
+                restart: false,
+            });
+        }
+    }
+    out
+}
+
+/// A frame that fails its CRC: a Fence frame with one bit flipped inside.
+fn corrupt_frame() -> Vec<u8> {
+    let mut frame = FrameWriter::new()
+        .encode(&MasterMessage::Fence { seq: 0x0101_0101 })
+        .expect("encodes")
+        .to_vec();
+    let mid = frame.len() / 2;
+    frame[mid] ^= 0x04;
+    assert_ne!(frame[mid], 0, "the flip must not make a delimiter");
+    frame
+}
+
+// ---------------------------------------------------------------------------------------------
+// Sessions
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn full_session_transfers_renders_and_ends() {
+    let f = room();
+    assert!(
+        f.blob.len() > 2 * SCENE_WINDOW,
+        "the room spans several windows ({} bytes)",
+        f.blob.len()
+    );
+    let lines = [0, 5, HEIGHT - 1, 7];
+    let mut script = Script::default();
+    script.hello().job(1, &f.blob).chunks_from(&f.blob, 0);
+    for &y in &lines {
+        script.line(1, y);
+    }
+    script.send(MasterMessage::EndSession);
+    // Nothing after EndSession is read.
+    script.send(MasterMessage::Fence { seq: 9 });
+
+    for piece in [1, 61, 4096] {
+        let mut cache = SceneCache::new();
+        let (result, out) = run_pieces(&script, &node(MEMORY), &mut cache, piece);
+        assert_eq!(result, Ok(SessionEnd::Ended), "piece {piece}");
+
+        let mut want = vec![
+            worker_hello(MEMORY),
+            Out::NeedScene {
+                job: 1,
+                offset: 0,
+                restart: true,
+            },
+        ];
+        want.extend(transfer_answers(&f.blob, 1, 0));
+        want.extend(lines.iter().map(|&y| expected_line(&f, 1, y)));
+        assert_eq!(out, want, "piece {piece}");
+        assert!(
+            cache.get(&f.blob.digest).is_some(),
+            "the loaded scene is cached"
+        );
+    }
+
+    // The comparison means something: the lines show the room, not one flat colour, and every
+    // pixel traced at least its primary ray.
+    let Out::Line { pixels, rays, .. } = expected_line(&f, 1, HEIGHT / 2) else {
+        unreachable!("expected_line makes lines");
+    };
+    assert!(pixels.iter().any(|p| *p != pixels[0]), "a varied line");
+    assert!(rays.primary == u64::from(WIDTH) && rays.shadow > 0);
+}
+
+#[test]
+fn end_of_stream_closes_the_session() {
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&Script::default(), &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(out, vec![]);
+
+    let mut script = Script::default();
+    script
+        .hello()
+        .send(MasterMessage::Fence { seq: 1 })
+        // A partial frame at the end is lost with the link.
+        .raw(&[0, 5, 6, 7]);
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(out, vec![worker_hello(MEMORY), Out::FenceAck { seq: 1 }]);
+}
+
+#[test]
+fn cached_scene_skips_the_transfer() {
+    let f = room();
+    let mut cache = SceneCache::new();
+    let mut first = Script::default();
+    first
+        .hello()
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .send(MasterMessage::EndSession);
+    let (result, out) = run(&first, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Ended));
+    assert_eq!(out.last(), Some(&Out::Ready { job: 1 }));
+
+    // The next master (a new session, same cache) announces the same scene under another job.
+    let other = fixture({
+        let mut d = room_desc();
+        d.settings.width = WIDTH + 1;
+        d
+    });
+    let mut second = Script::default();
+    second
+        .hello()
+        .job(2, &f.blob)
+        .line(2, 3)
+        .job(3, &other.blob)
+        .send(MasterMessage::EndSession);
+    let (result, out) = run(&second, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Ended));
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(MEMORY),
+            Out::Ready { job: 2 },
+            expected_line(&f, 2, 3),
+            // Another scene is not in the cache.
+            Out::NeedScene {
+                job: 3,
+                offset: 0,
+                restart: true,
+            },
+        ]
+    );
+
+    // A cache made from the master's prepared scene works the same.
+    let mut shared = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let mut third = Script::default();
+    third.hello().job(4, &f.blob).line(4, HEIGHT - 1);
+    let (result, out) = run(&third, &node(MEMORY), &mut shared);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(MEMORY),
+            Out::Ready { job: 4 },
+            expected_line(&f, 4, HEIGHT - 1)
+        ]
+    );
+}
+
+#[test]
+fn version_mismatch_answers_hello_and_ends() {
+    let f = room();
+    let mut script = Script::default();
+    script
+        .send(MasterMessage::Hello(Hello {
+            version: PROTOCOL_VERSION + 1,
+            name: "future-master",
+            arch: "x86_64",
+            scene_memory: 0,
+        }))
+        .job(1, &f.blob)
+        .send(MasterMessage::Fence { seq: 1 });
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(
+        result,
+        Err(WorkerError::VersionMismatch {
+            master: PROTOCOL_VERSION + 1
+        })
+    );
+    assert_eq!(
+        out,
+        vec![worker_hello(MEMORY)],
+        "only the worker's Hello, nothing for the later messages"
+    );
+}
+
+#[test]
+fn messages_before_hello_are_ignored() {
+    let f = room();
+    let mut before = Script::default();
+    before
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .line(1, 0)
+        .send(MasterMessage::Fence { seq: 1 })
+        .raw(&corrupt_frame())
+        .send(MasterMessage::EndSession);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&before, &node(MEMORY), &mut cache);
+    assert_eq!(out, vec![], "no answer to anything before Hello");
+    assert_eq!(
+        result,
+        Ok(SessionEnd::Closed),
+        "EndSession before Hello is ignored too"
+    );
+    assert!(
+        cache.get(&f.blob.digest).is_none(),
+        "chunks before Hello load nothing"
+    );
+
+    // After a Hello the session starts clean: no job, no dropped frames counted.
+    before
+        .hello()
+        .line(1, 0)
+        .raw(&corrupt_frame())
+        .send(MasterMessage::Fence { seq: 2 });
+    let (result, out) = run(&before, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(MEMORY),
+            Out::Refused {
+                job: 1,
+                reason: Refusal::UnknownJob
+            },
+            Out::Dropped { total: 1 },
+            Out::FenceAck { seq: 2 },
+        ]
+    );
+}
+
+#[test]
+fn requests_that_cannot_be_served_are_refused() {
+    let f = room();
+    let mut script = Script::default();
+    script
+        .hello()
+        // No job yet.
+        .line(1, 0)
+        .job(1, &f.blob)
+        .chunk(&f.blob, 0)
+        // The scene is still loading.
+        .line(1, 0)
+        .chunks_from(&f.blob, MAX_CHUNK_LEN as u32)
+        .line(1, HEIGHT)
+        .line(1, u32::MAX)
+        .line(99, 0)
+        .line(1, HEIGHT - 1);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let refused = |job, reason| Out::Refused { job, reason };
+    let mut want = vec![
+        worker_hello(MEMORY),
+        refused(1, Refusal::UnknownJob),
+        Out::NeedScene {
+            job: 1,
+            offset: 0,
+            restart: true,
+        },
+        refused(1, Refusal::UnknownJob),
+    ];
+    want.extend(transfer_answers(&f.blob, 1, 0));
+    want.extend([
+        refused(1, Refusal::LineOutOfRange),
+        refused(1, Refusal::LineOutOfRange),
+        refused(99, Refusal::UnknownJob),
+        // The job still works after refusals.
+        expected_line(&f, 1, HEIGHT - 1),
+    ]);
+    assert_eq!(out, want);
+}
+
+#[test]
+fn fence_is_answered_after_earlier_requests() {
+    let f = room();
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(7, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .line(7, 0)
+        .line(7, 1)
+        .line(7, 2)
+        .send(MasterMessage::Fence { seq: 42 })
+        .line(7, 3)
+        .line(8, 0)
+        .send(MasterMessage::Fence { seq: 43 });
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let after_load = out
+        .iter()
+        .position(|o| *o == Out::Ready { job: 7 })
+        .expect("the scene loads");
+    assert_eq!(
+        out[after_load + 1..],
+        [
+            expected_line(&f, 7, 0),
+            expected_line(&f, 7, 1),
+            expected_line(&f, 7, 2),
+            Out::FenceAck { seq: 42 },
+            expected_line(&f, 7, 3),
+            Out::Refused {
+                job: 8,
+                reason: Refusal::UnknownJob
+            },
+            Out::FenceAck { seq: 43 },
+        ]
+    );
+}
+
+#[test]
+fn scene_larger_than_memory_is_refused() {
+    let f = room();
+    let mut cache = SceneCache::new();
+
+    // Smaller than the encoding: refused at once, and so are its lines and a repeated Job.
+    let tiny = u64::from(f.blob.len()) - 1;
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .line(1, 0)
+        .job(1, &f.blob);
+    let (result, out) = run(&script, &node(tiny), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let refused = Out::Refused {
+        job: 1,
+        reason: Refusal::SceneTooLarge { limit: tiny },
+    };
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(tiny),
+            refused.clone(),
+            refused.clone(),
+            refused
+        ]
+    );
+    assert!(cache.get(&f.blob.digest).is_none());
+
+    // Room for the encoding but not for the prepared scene: refused once it has arrived.
+    let estimate = memory_estimate(f.blob.len(), Some(&f.desc));
+    assert!(estimate > u64::from(f.blob.len()));
+    let limit = estimate - 1;
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(2, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .line(2, 0);
+    let (result, out) = run(&script, &node(limit), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let refused = Out::Refused {
+        job: 2,
+        reason: Refusal::SceneTooLarge { limit },
+    };
+    let mut want = vec![
+        worker_hello(limit),
+        Out::NeedScene {
+            job: 2,
+            offset: 0,
+            restart: true,
+        },
+    ];
+    let mut answers = transfer_answers(&f.blob, 2, 0);
+    assert_eq!(answers.pop(), Some(Out::Ready { job: 2 }));
+    want.extend(answers);
+    want.extend([refused.clone(), refused]);
+    assert_eq!(out, want);
+    assert!(cache.get(&f.blob.digest).is_none());
+
+    // Exactly the estimate is enough.
+    let (result, out) = run(&script, &node(estimate), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(out.last(), Some(&expected_line(&f, 2, 0)));
+}
+
+#[test]
+fn corrupt_frames_after_hello_are_reported() {
+    let mut script = Script::default();
+    script
+        .hello()
+        .raw(&corrupt_frame())
+        .send(MasterMessage::Fence { seq: 1 })
+        // Garbage between frames.
+        .raw(&[0x13, 0x37, 0xFF])
+        .send(MasterMessage::Fence { seq: 2 })
+        // An intact frame that breaks a limit (scene_len 0) counts as dropped too.
+        .send(MasterMessage::Job {
+            job: 1,
+            digest: [0; 32],
+            scene_len: 0,
+        })
+        .send(MasterMessage::Fence { seq: 3 })
+        // A new Hello starts counting afresh.
+        .hello()
+        .raw(&corrupt_frame());
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(MEMORY),
+            Out::Dropped { total: 1 },
+            Out::FenceAck { seq: 1 },
+            Out::Dropped { total: 2 },
+            Out::FenceAck { seq: 2 },
+            Out::Dropped { total: 3 },
+            Out::FenceAck { seq: 3 },
+            worker_hello(MEMORY),
+            Out::Dropped { total: 1 },
+        ]
+    );
+}
+
+#[test]
+fn frame_too_long_for_the_worker_is_dropped() {
+    // A wide line result is no master message and does not fit the worker's buffer.
+    let pixels = vec![1u8; 2000 * PIXEL_WIRE_BYTES];
+    let long = FrameWriter::new()
+        .encode(&WorkerMessage::LineResult {
+            job: 0,
+            line: 0,
+            rays: RayCounts::default(),
+            pixels: &pixels,
+        })
+        .expect("encodes")
+        .to_vec();
+    let mut script = Script::default();
+    script
+        .hello()
+        .raw(&long)
+        .send(MasterMessage::Fence { seq: 5 });
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(
+        out,
+        vec![
+            worker_hello(MEMORY),
+            Out::Dropped { total: 1 },
+            Out::FenceAck { seq: 5 }
+        ]
+    );
+}
+
+#[test]
+fn lost_chunk_is_asked_for_once_and_resending_completes() {
+    let f = room();
+    let step = MAX_CHUNK_LEN as u32;
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .chunk(&f.blob, 0)
+        // The chunk at 1024 is lost; the next three arrive.
+        .chunk(&f.blob, 2 * step)
+        .chunk(&f.blob, 3 * step)
+        .chunk(&f.blob, 4 * step)
+        // The master resends from the byte asked for.
+        .chunks_from(&f.blob, step)
+        .line(1, 2);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let mut want = vec![
+        worker_hello(MEMORY),
+        Out::NeedScene {
+            job: 1,
+            offset: 0,
+            restart: true,
+        },
+        Out::NeedScene {
+            job: 1,
+            offset: step,
+            restart: true,
+        },
+    ];
+    want.extend(transfer_answers(&f.blob, 1, step));
+    want.push(expected_line(&f, 1, 2));
+    assert_eq!(out, want);
+    assert!(cache.get(&f.blob.digest).is_some());
+}
+
+#[test]
+fn job_announced_again_is_answered_where_it_stands() {
+    let f = room();
+    let step = MAX_CHUNK_LEN as u32;
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .chunk(&f.blob, 0)
+        .chunk(&f.blob, step)
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 2 * step)
+        .job(1, &f.blob);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let mut want = vec![
+        worker_hello(MEMORY),
+        Out::NeedScene {
+            job: 1,
+            offset: 0,
+            restart: true,
+        },
+        Out::NeedScene {
+            job: 1,
+            offset: 2 * step,
+            restart: true,
+        },
+    ];
+    want.extend(transfer_answers(&f.blob, 1, 2 * step));
+    want.push(Out::Ready { job: 1 });
+    assert_eq!(out, want);
+}
+
+#[test]
+fn corrupt_or_bad_scenes_are_refused() {
+    let f = room();
+    // One byte damaged on the way: the digest does not match.
+    let mut damaged = f.blob.clone();
+    damaged.bytes[MAX_CHUNK_LEN + 17] ^= 0x01;
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .send(MasterMessage::SceneChunk {
+            digest: f.blob.digest,
+            offset: 0,
+            bytes: damaged.chunk_at(0),
+        })
+        .send(MasterMessage::SceneChunk {
+            digest: f.blob.digest,
+            offset: MAX_CHUNK_LEN as u32,
+            bytes: damaged.chunk_at(MAX_CHUNK_LEN as u32),
+        })
+        .chunks_from(&f.blob, 2 * MAX_CHUNK_LEN as u32)
+        .line(1, 0);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let refused = Out::Refused {
+        job: 1,
+        reason: Refusal::CorruptScene,
+    };
+    assert_eq!(out[out.len() - 2..], [refused.clone(), refused]);
+    assert!(!out.contains(&Out::Ready { job: 1 }));
+    assert!(cache.get(&f.blob.digest).is_none());
+
+    // A scene that arrives intact but cannot be rendered (no light).
+    let mut dark = room_desc();
+    dark.lights.clear();
+    let params = OctreeParams::default();
+    let blob = SceneBlob::encode(&dark, &params).expect("encodes");
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(2, &blob)
+        .chunks_from(&blob, 0)
+        .line(2, 0);
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let refused = Out::Refused {
+        job: 2,
+        reason: Refusal::BadScene(SceneError::NoLight),
+    };
+    assert_eq!(out[out.len() - 2..], [refused.clone(), refused]);
+}
+
+#[test]
+fn hello_mid_session_restarts_it_keeping_the_cache() {
+    let f = room();
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .hello()
+        .line(1, 0)
+        .job(1, &f.blob)
+        .line(1, 0);
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let after_load = out
+        .iter()
+        .position(|o| *o == Out::Ready { job: 1 })
+        .expect("the scene loads");
+    assert_eq!(
+        out[after_load + 1..],
+        [
+            worker_hello(MEMORY),
+            Out::Refused {
+                job: 1,
+                reason: Refusal::UnknownJob
+            },
+            Out::Ready { job: 1 },
+            expected_line(&f, 1, 0),
+        ]
+    );
+}
