@@ -6,6 +6,7 @@
 //! is the median of several runs; ratios are against figures from the same run.
 
 use crate::generate;
+use std::io::Write as _;
 use std::time::{Duration, Instant};
 use strahl_core::octree::{Octree, OctreeParams};
 use strahl_core::pixel::Pixel;
@@ -179,7 +180,11 @@ impl std::fmt::Display for BenchReport {
 
 /// Arguments of `strahl bench`.
 #[derive(Debug, clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct BenchArgs {
+    /// Another benchmark instead of the core figures.
+    #[command(subcommand)]
+    pub command: Option<BenchCommand>,
     /// Least number of triangles of the generated scene.
     #[arg(long, value_name = "N", default_value_t = 100_000,
           value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
@@ -202,11 +207,22 @@ pub struct BenchArgs {
     pub octree_leaf: u32,
 }
 
+/// The benchmarks besides the core figures.
+#[derive(Debug, clap::Subcommand)]
+pub enum BenchCommand {
+    /// Speedup over 1..N workers: in-process and TCP worker processes measured on this
+    /// machine, a discrete-event model beyond it (the seed's 1-to-12-machines comparison).
+    Scaling(crate::bench_scaling::ScalingArgs),
+}
+
 /// Runs `strahl bench` and prints its report on stdout.
 ///
 /// # Errors
-/// If the generated scene cannot be built.
+/// If the generated scene cannot be built, or the chosen benchmark fails.
 pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
+    if let Some(BenchCommand::Scaling(a)) = &args.command {
+        return crate::bench_scaling::run(a);
+    }
     let opts = BenchOptions {
         triangles: args.triangles,
         size: args.size,
@@ -217,6 +233,6 @@ pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
         },
     };
     let report = run(&opts).map_err(|e| anyhow::anyhow!("generated benchmark scene: {e}"))?;
-    println!("{report}");
+    writeln!(std::io::stdout().lock(), "{report}")?;
     Ok(())
 }

@@ -104,3 +104,75 @@ fn bench_reports_the_issue_figures() {
         assert!(text.contains(needle), "missing {needle:?} in:\n{text}");
     }
 }
+
+#[test]
+fn bench_scaling_prints_a_speedup_table() {
+    let out = strahl(&[
+        "bench",
+        "scaling",
+        "--width",
+        "32",
+        "--height",
+        "24",
+        "--runs",
+        "1",
+        "--max-real",
+        "2",
+        "--up-to",
+        "4",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .filter(|l| {
+            l.trim_start()
+                .chars()
+                .next()
+                .is_some_and(|c| c.is_ascii_digit())
+        })
+        .map(|l| l.split_whitespace().filter(|w| *w != "|").collect())
+        .collect();
+    assert_eq!(rows.len(), 4, "{text}");
+    for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row[0], (i + 1).to_string(), "{text}");
+        // Measured columns for 1 and 2 workers (in-process and TCP), model for all.
+        let measured = row[1..5].iter().all(|v| v.parse::<f64>().is_ok());
+        assert_eq!(measured, i < 2, "row {}: {text}", i + 1);
+        let model: f64 = row[5].parse().unwrap_or(f64::NAN);
+        assert!(model > 0.0, "{text}");
+    }
+    // Speedup of one worker against itself is 1 in every column.
+    assert_eq!(
+        (rows[0][2], rows[0][4], rows[0][6]),
+        ("1.00", "1.00", "1.00")
+    );
+}
+
+#[test]
+fn bench_output_into_a_closed_pipe_is_not_a_panic() {
+    use std::io::Read as _;
+    use std::process::{Command, Stdio};
+    let mut child = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args([
+            "bench", "scaling", "--width", "16", "--height", "16", "--runs", "1",
+        ])
+        .args(["--no-tcp", "--up-to", "200"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start strahl");
+    // Close our end of stdout at once: the table's lines meet a broken pipe.
+    drop(child.stdout.take());
+    let mut err = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        e.read_to_string(&mut err).expect("read stderr");
+    }
+    let status = child.wait().expect("wait");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(status.success(), "{status}: {err}");
+}

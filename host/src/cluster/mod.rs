@@ -8,11 +8,14 @@
 //! - [`prepared`]: a scene built once and encoded once, for the master and in-process workers.
 //! - [`local`]: worker threads in this process, the default executor of `strahl render`.
 //! - [`sim`]: the simulated cluster: many in-process workers with speeds and seeded faults.
+//! - [`model`]: a discrete-event model of the master and workers in virtual time, for
+//!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
 
 pub mod link;
 pub mod local;
 pub mod master;
+pub mod model;
 pub mod pipe;
 pub mod prepared;
 pub mod report;

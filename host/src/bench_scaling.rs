@@ -1,0 +1,328 @@
+//! `strahl bench scaling`: the seed's runtime comparison over 1 to N machines (its section
+//! 3.2.3.4), answered three ways in one run.
+//!
+//! - **In-process**: 1 to `cores` workers in this process (the default executor), measured.
+//! - **TCP processes**: 1 to `cores` `strahl worker` processes on loopback, measured. They keep
+//!   running between runs, so only the first run of each count transfers the scene.
+//! - **Model**: 1 to `--up-to` workers in the discrete-event model
+//!   ([`crate::cluster::model`]), fed with this machine's cost of every line and the master's
+//!   time per result, measured here with an image whose rays hit nothing. Where real figures exist, the model's stand
+//!   next to them, so its error is visible.
+//!
+//! Every time is the median of `--runs` runs; speedups are against the 1-worker time of the same
+//! column in the same run.
+
+use crate::cluster::link::Link;
+use crate::cluster::local::render_local;
+use crate::cluster::master::{run_master, ClusterImage, MasterOptions};
+use crate::cluster::model::{simulate, ModelParams};
+use crate::cluster::prepared::PreparedScene;
+use crate::generate;
+use anyhow::{anyhow, Context as _};
+use std::io::{BufRead as _, BufReader, Write as _};
+use std::num::NonZeroUsize;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+use strahl_core::octree::OctreeParams;
+use strahl_core::pixel::Pixel;
+use strahl_core::render::render_line;
+use strahl_core::scene::RenderSettings;
+
+/// Arguments of `strahl bench scaling`.
+#[derive(Debug, clap::Args)]
+pub struct ScalingArgs {
+    /// Image width of the demo room.
+    #[arg(long, value_name = "PIXELS", default_value_t = 640,
+          value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub width: u32,
+    /// Image height of the demo room.
+    #[arg(long, value_name = "PIXELS", default_value_t = 480,
+          value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub height: u32,
+    /// Runs per figure (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Most workers measured for real [default: the number of CPUs].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub max_real: Option<u32>,
+    /// Most workers in the model (the seed compared 1 to 12 machines).
+    #[arg(long, value_name = "N", default_value_t = 12,
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub up_to: u32,
+    /// Requests each worker has outstanding.
+    #[arg(long, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub window: u32,
+    /// Skip the TCP worker processes (in-process and model only).
+    #[arg(long)]
+    pub no_tcp: bool,
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v.get(v.len() / 2).copied().unwrap_or_default()
+}
+
+/// A `strahl worker` process on loopback, killed when dropped.
+struct WorkerProcess {
+    child: Child,
+    address: String,
+}
+
+impl Drop for WorkerProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
+    let exe = std::env::current_exe().context("cannot find the strahl executable")?;
+    let mut child = Command::new(exe)
+        .args(["worker", "--listen", "127.0.0.1:0", "--name"])
+        .arg(format!("bench-{index}"))
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .context("cannot start a worker process")?;
+    let stderr = child.stderr.take();
+    // From here on the guard kills the process on any early return.
+    let mut w = WorkerProcess {
+        child,
+        address: String::new(),
+    };
+    let stderr = stderr.ok_or_else(|| anyhow!("worker process without stderr"))?;
+    let mut lines = BufReader::new(stderr).lines();
+    let first = lines.next().transpose()?.unwrap_or_default();
+    w.address = first
+        .rsplit_once("listening on ")
+        .map(|(_, a)| a.trim().to_string())
+        .filter(|a| !a.is_empty())
+        .ok_or_else(|| anyhow!("the worker process said `{first}` instead of its address"))?;
+    // Keep draining its stderr so it never blocks on a full pipe.
+    std::thread::spawn(move || lines.for_each(drop));
+    Ok(w)
+}
+
+fn tcp_render(
+    prepared: &PreparedScene,
+    workers: &[WorkerProcess],
+    opts: &MasterOptions,
+) -> anyhow::Result<ClusterImage> {
+    let mut links = Vec::new();
+    for w in workers {
+        let stream = strahl_tcp::connect(&w.address, Duration::from_secs(5))
+            .with_context(|| format!("cannot reach worker {}", w.address))?;
+        links.push(Link::from_tcp(w.address.clone(), stream)?);
+    }
+    Ok(run_master(
+        &prepared.job(),
+        links,
+        None,
+        opts,
+        &|_, _| {},
+        &|_| {},
+    )?)
+}
+
+/// One row of the table.
+struct Row {
+    workers: u32,
+    in_process: Option<Duration>,
+    tcp: Option<Duration>,
+    model: f64,
+}
+
+fn speedup(base: Option<Duration>, t: Option<Duration>) -> String {
+    match (base, t) {
+        (Some(b), Some(t)) if t > Duration::ZERO => {
+            format!("{:.2}", b.as_secs_f64() / t.as_secs_f64())
+        }
+        _ => "-".to_string(),
+    }
+}
+
+fn secs(t: Option<Duration>) -> String {
+    t.map_or("-".to_string(), |t| format!("{:.3}", t.as_secs_f64()))
+}
+
+/// Runs `strahl bench scaling` and prints the table on stdout.
+///
+/// # Errors
+/// If a worker process cannot be started or reached, or a render fails.
+pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
+    let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get) as u32;
+    let max_real = args.max_real.unwrap_or(cores).max(1);
+    let runs = args.runs.max(1) as usize;
+    let mut desc = generate::room();
+    desc.settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        reflections: true,
+        ..desc.settings
+    };
+    let prepared = PreparedScene::new(&desc, &OctreeParams::default())
+        .map_err(|e| anyhow!("demo room: {e}"))?;
+    let opts = MasterOptions {
+        window: args.window,
+        ..MasterOptions::default()
+    };
+
+    // The cost of every line on one core, the model's input (median of the runs per line).
+    let scene = &prepared.scene;
+    let mut row = vec![Pixel::default(); args.width as usize];
+    let mut costs = vec![Vec::with_capacity(runs); args.height as usize];
+    for _ in 0..runs {
+        for (y, c) in costs.iter_mut().enumerate() {
+            let t = Instant::now();
+            render_line(scene, y as u32, &mut row).map_err(|e| anyhow!("line {y}: {e}"))?;
+            c.push(t.elapsed());
+        }
+    }
+    let line_costs: Vec<f64> = costs.into_iter().map(|c| median(c).as_secs_f64()).collect();
+    let traced: f64 = line_costs.iter().sum();
+
+    let mut in_process = Vec::new();
+    for n in 1..=max_real {
+        let mut times = Vec::with_capacity(runs);
+        for _ in 0..runs {
+            let t = Instant::now();
+            render_local(&prepared, n as usize, &|_, _| {})?;
+            times.push(t.elapsed());
+        }
+        in_process.push(median(times));
+    }
+
+    let tcp_procs: Option<Vec<WorkerProcess>> = if args.no_tcp {
+        None
+    } else {
+        Some(
+            (1..=max_real)
+                .map(start_worker_process)
+                .collect::<anyhow::Result<_>>()?,
+        )
+    };
+    let mut tcp = Vec::new();
+    if let Some(procs) = &tcp_procs {
+        for n in 1..=max_real as usize {
+            let mut times = Vec::with_capacity(runs);
+            for _ in 0..runs {
+                let t = Instant::now();
+                tcp_render(&prepared, &procs[..n], &opts)?;
+                times.push(t.elapsed());
+            }
+            tcp.push(median(times));
+        }
+    }
+
+    // The master's time per result: a TCP render of the same image size whose rays hit
+    // nothing (one tiny triangle out of view) is all protocol, framing and scheduling.
+    let empty = {
+        let mut d = desc.clone();
+        d.points = vec![
+            glam::Vec3::new(0.0, -1e3, 0.0),
+            glam::Vec3::new(1e-3, -1e3, 0.0),
+            glam::Vec3::new(0.0, -1e3, 1e-3),
+        ];
+        d.triangles.truncate(1);
+        d.triangles[..]
+            .iter_mut()
+            .for_each(|t| t.points = [0, 1, 2]);
+        PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))?
+    };
+    let mut empty_times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t = Instant::now();
+        if let Some(procs) = tcp_procs.as_deref() {
+            tcp_render(&empty, &procs[..1], &opts)?;
+        } else {
+            render_local(&empty, 1, &|_, _| {})?;
+        }
+        empty_times.push(t.elapsed());
+    }
+    let master_time = median(empty_times).as_secs_f64() / f64::from(args.height);
+    let latency = 50e-6;
+    let model = |n: u32| {
+        simulate(&ModelParams {
+            line_costs: line_costs.clone(),
+            speeds: vec![1.0; n as usize],
+            latency,
+            master_time,
+            window: args.window,
+        })
+        .makespan
+    };
+    let rows: Vec<Row> = (1..=args.up_to.max(max_real))
+        .map(|n| Row {
+            workers: n,
+            in_process: in_process.get(n as usize - 1).copied(),
+            tcp: tcp.get(n as usize - 1).copied(),
+            model: model(n),
+        })
+        .collect();
+
+    let mut out = std::io::stdout().lock();
+    writeln!(
+        out,
+        "strahl bench scaling: demo room {}x{} with reflections, {} triangles; {cores} CPUs here; \
+         window {}; median of {runs} runs",
+        args.width,
+        args.height,
+        scene.triangle_points.len(),
+        args.window
+    )?;
+    writeln!(
+        out,
+        "tracing all lines on one core: {traced:.3} s; model: master time per result {:.1} µs \
+         (measured with an empty image{}), one-way latency {:.0} µs",
+        master_time * 1e6,
+        if tcp_procs.is_some() {
+            " over TCP"
+        } else {
+            " in-process"
+        },
+        latency * 1e6
+    )?;
+    writeln!(
+        out,
+        "{:>7} | {:>13} {:>7} | {:>13} {:>7} | {:>9} {:>7} {:>10}",
+        "workers",
+        "in-process s",
+        "speedup",
+        "TCP procs s",
+        "speedup",
+        "model s",
+        "speedup",
+        "efficiency"
+    )?;
+    let base_model = rows.first().map_or(0.0, |r| r.model);
+    for r in &rows {
+        let model_speedup = if r.model > 0.0 {
+            base_model / r.model
+        } else {
+            0.0
+        };
+        writeln!(
+            out,
+            "{:>7} | {:>13} {:>7} | {:>13} {:>7} | {:>9.3} {:>7.2} {:>9.0}%",
+            r.workers,
+            secs(r.in_process),
+            speedup(in_process.first().copied(), r.in_process),
+            secs(r.tcp),
+            speedup(tcp.first().copied(), r.tcp),
+            r.model,
+            model_speedup,
+            100.0 * model_speedup / f64::from(r.workers),
+        )?;
+    }
+    if max_real > cores {
+        writeln!(
+            out,
+            "note: {max_real} real workers on {cores} CPUs share cores; their speedup cannot \
+             exceed {cores}"
+        )?;
+    }
+    Ok(())
+}
