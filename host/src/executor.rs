@@ -88,13 +88,19 @@ pub struct LaunchedWorker {
 
 impl Drop for LaunchedWorker {
     fn drop(&mut self) {
-        // A worker that served its session has exited by now; give it a moment, then stop it.
+        // A worker that served its session has exited by now; give it a moment, then stop the
+        // launch command's whole process group (the shell and whatever it started).
         for _ in 0..20 {
             if matches!(self.child.try_wait(), Ok(Some(_))) {
                 return;
             }
             std::thread::sleep(Duration::from_millis(25));
         }
+        let group = format!("-{}", self.child.id());
+        let _ = Command::new("kill")
+            .args(["-TERM", "--", &group])
+            .stderr(Stdio::null())
+            .status();
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -242,11 +248,16 @@ fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<Laun
     let command = template
         .replace("{host}", &host.host)
         .replace("{master}", master);
-    let child = Command::new("sh")
+    let mut shell = Command::new("sh");
+    shell
         .arg("-c")
         .arg(&command)
         .stdin(Stdio::null())
-        .stdout(Stdio::null())
+        .stdout(Stdio::null());
+    // Its own process group, so stopping it stops what it started too.
+    #[cfg(unix)]
+    std::os::unix::process::CommandExt::process_group(&mut shell, 0);
+    let child = shell
         .spawn()
         .with_context(|| format!("cannot start `{command}` for host {}", host.host))?;
     Ok(LaunchedWorker {

@@ -245,6 +245,7 @@ fn write_loop(
     frames: &Receiver<Vec<u8>>,
     events: &Sender<Event>,
     closer: &(dyn Fn() + Send + Sync),
+    done: &Sender<usize>,
 ) {
     for frame in frames {
         if let Err(e) = writer.write_all(&frame).and_then(|()| writer.flush()) {
@@ -253,6 +254,7 @@ fn write_loop(
         }
     }
     closer();
+    let _ = done.send(id);
 }
 
 /// Where a worker is in its session.
@@ -283,6 +285,9 @@ struct Slot {
     closer: Arc<dyn Fn() + Send + Sync>,
     state: State,
     last_heard: Instant,
+    /// The last sign of progress while greeting or loading (a `Hello`, `NeedScene` or
+    /// `Ready`): a worker that only reports dropped frames is probed anyway.
+    last_progress: Instant,
     last_probe: Instant,
     requests: VecDeque<Request>,
     next_seq: u32,
@@ -302,6 +307,9 @@ struct Master<'a> {
     rays: RayCounts,
     frames: FrameWriter,
     events_tx: Sender<Event>,
+    /// Writer threads report here when they have sent everything and cut their link.
+    writers_done_tx: Sender<usize>,
+    writers_done: Receiver<usize>,
     on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
     log: &'a (dyn Fn(&str) + Sync),
 }
@@ -322,6 +330,7 @@ pub fn run_master(
     log: &(dyn Fn(&str) + Sync),
 ) -> Result<ClusterImage, ClusterError> {
     let (events_tx, events) = mpsc::channel();
+    let (writers_done_tx, writers_done) = mpsc::channel();
     let mut m = Master {
         job,
         opts,
@@ -331,6 +340,8 @@ pub fn run_master(
         rays: RayCounts::default(),
         frames: FrameWriter::new(),
         events_tx,
+        writers_done_tx,
+        writers_done,
         on_line,
         log,
     };
@@ -391,9 +402,10 @@ impl Master<'_> {
         let events = self.events_tx.clone();
         let writer = link.writer;
         let thread_closer = Arc::clone(&closer);
+        let done = self.writers_done_tx.clone();
         let writer_ok = std::thread::Builder::new()
             .name(format!("strahl-tx-{id}"))
-            .spawn(move || write_loop(id, writer, &rx, &events, &*thread_closer))
+            .spawn(move || write_loop(id, writer, &rx, &events, &*thread_closer, &done))
             .is_ok();
         let now = Instant::now();
         self.slots.push(Slot {
@@ -402,6 +414,7 @@ impl Master<'_> {
             closer,
             state: State::Greeting,
             last_heard: now,
+            last_progress: now,
             last_probe: now,
             requests: VecDeque::new(),
             next_seq: 0,
@@ -511,6 +524,7 @@ impl Master<'_> {
                     );
                 }
                 let slot = &mut self.slots[id];
+                slot.last_progress = now;
                 slot.report.name = name;
                 slot.report.arch = arch;
                 slot.state = State::Loading;
@@ -523,6 +537,7 @@ impl Master<'_> {
             } if j == job => {
                 let len = self.job.blob.len();
                 let slot = &mut self.slots[id];
+                slot.last_progress = now;
                 if slot.state == State::Greeting {
                     slot.state = State::Loading;
                 }
@@ -647,10 +662,13 @@ impl Master<'_> {
         self.release(id, &lines);
         let slot = &mut self.slots[id];
         let requeued = slot.report.reissued - before;
+        let who = if slot.report.name == slot.report.address {
+            slot.report.name.clone()
+        } else {
+            format!("{} ({})", slot.report.name, slot.report.address)
+        };
         (self.log)(&format!(
-            "worker {} ({}) lost: {reason}; {requeued} line{} re-queued",
-            slot.report.name,
-            slot.report.address,
+            "worker {who} lost: {reason}; {requeued} line{} re-queued",
             if requeued == 1 { "" } else { "s" }
         ));
         slot.report.lost = Some(reason);
@@ -668,11 +686,15 @@ impl Master<'_> {
                 continue;
             }
             let silence = now.duration_since(slot.last_heard);
+            let stalled = match slot.state {
+                State::Greeting | State::Loading => now.duration_since(slot.last_progress),
+                _ => silence,
+            };
             if silence >= self.opts.worker_timeout {
                 self.lose(id, format!("no answer for {:.1} s", silence.as_secs_f64()));
                 continue;
             }
-            if silence < self.opts.probe_interval
+            if stalled < self.opts.probe_interval
                 || now.duration_since(slot.last_probe) < self.opts.probe_interval
             {
                 continue;
@@ -727,12 +749,29 @@ impl Master<'_> {
     }
 
     fn finish(mut self) -> Result<ClusterImage, ClusterError> {
+        let mut live = 0;
         for id in 0..self.slots.len() {
             if self.slots[id].state != State::Gone {
                 self.send(id, &MasterMessage::EndSession);
+                live += 1;
             }
             // Dropping the queue lets the writer send what is queued, then cut the link.
             self.slots[id].tx = None;
+        }
+        // Give the writers a moment to deliver `EndSession`, so workers know the session is
+        // over before this process exits; a writer stuck on a dead link is not waited for.
+        let deadline = Instant::now() + Duration::from_secs(2);
+        let mut finished = std::collections::HashSet::new();
+        while finished.len() < live {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.writers_done.recv_timeout(left) {
+                Ok(id) => {
+                    if self.slots[id].state != State::Gone {
+                        finished.insert(id);
+                    }
+                }
+                Err(_) => break,
+            }
         }
         let workers: Vec<WorkerReport> = self.slots.into_iter().map(|s| s.report).collect();
         if !self.sched.is_complete() {
