@@ -1083,3 +1083,46 @@ fn worker_joins_a_master_with_none() {
     assert_eq!(image.workers[0].lines, want.height);
     assert!(image.workers[0].lost.is_none());
 }
+
+#[test]
+fn worker_whose_link_only_carries_garbage_is_dropped() {
+    // Every byte from worker 1 has a flipped bit: its frames all fail their CRC, so the master
+    // hears only bad frames. It never gets a line; the clean worker finishes the image (too
+    // fast for the garbage worker's time-out, so it need not be reported lost).
+    let prepared = room(32, 24);
+    let want = reference(&prepared);
+    let cache = prepared.cache();
+    let garbage = SimWorker {
+        up: flips(1.0, 7),
+        ..SimWorker::default()
+    };
+    let links = vec![
+        sim(1, garbage, &cache),
+        sim(2, SimWorker::default(), &cache),
+    ];
+    let image = master(&prepared, links, None, &options(2, 400), &|_| {}).expect("image");
+    assert_same_image(&image, &want, "one garbage link");
+    let bad = report(&image.workers, "sim 1");
+    assert_eq!(bad.lines, 0, "{}", table(&image.workers));
+    assert!(bad.frames_dropped > 0, "{}", table(&image.workers));
+
+    // Alone, it cannot finish anything. Bad frames are no sign of life: it is probed, then
+    // dropped for silence, and the render stops instead of waiting forever.
+    let links = vec![sim(3, garbage, &cache)];
+    let err = master(&prepared, links, None, &options(2, 400), &|_| {})
+        .expect_err("no image from a garbage link");
+    let ClusterError::AllWorkersLost {
+        finished, workers, ..
+    } = &err
+    else {
+        panic!("expected AllWorkersLost, got {err}");
+    };
+    assert_eq!(*finished, 0, "{err}");
+    assert!(
+        workers[0]
+            .lost
+            .as_deref()
+            .is_some_and(|l| l.starts_with("no answer")),
+        "{err}"
+    );
+}

@@ -284,9 +284,9 @@ struct Slot {
     tx: Option<Sender<Vec<u8>>>,
     closer: Arc<dyn Fn() + Send + Sync>,
     state: State,
-    last_heard: Instant,
-    /// The last sign of progress while greeting or loading (a `Hello`, `NeedScene` or
-    /// `Ready`): a worker that only reports dropped frames is probed anyway.
+    /// The last valid message other than a `Dropped` notice (or the request that ended an idle
+    /// spell). Bad frames and drop notices are no progress: a worker whose link only carries
+    /// garbage is probed, then dropped, like a silent one.
     last_progress: Instant,
     last_probe: Instant,
     requests: VecDeque<Request>,
@@ -413,7 +413,6 @@ impl Master<'_> {
             tx: Some(tx),
             closer,
             state: State::Greeting,
-            last_heard: now,
             last_progress: now,
             last_probe: now,
             requests: VecDeque::new(),
@@ -484,12 +483,13 @@ impl Master<'_> {
         match event {
             Event::Closed(_, reason) => self.lose(id, reason),
             Event::BadFrame(_) => {
-                self.slots[id].last_heard = now;
                 self.slots[id].report.frames_dropped += 1;
                 self.fence_after_loss(id);
             }
             Event::Message(_, msg) => {
-                self.slots[id].last_heard = now;
+                if !matches!(msg, Incoming::Dropped) {
+                    self.slots[id].last_progress = now;
+                }
                 self.take(id, msg, now);
             }
         }
@@ -524,7 +524,6 @@ impl Master<'_> {
                     );
                 }
                 let slot = &mut self.slots[id];
-                slot.last_progress = now;
                 slot.report.name = name;
                 slot.report.arch = arch;
                 slot.state = State::Loading;
@@ -537,7 +536,6 @@ impl Master<'_> {
             } if j == job => {
                 let len = self.job.blob.len();
                 let slot = &mut self.slots[id];
-                slot.last_progress = now;
                 if slot.state == State::Greeting {
                     slot.state = State::Loading;
                 }
@@ -685,13 +683,9 @@ impl Master<'_> {
             if !waiting_on_it {
                 continue;
             }
-            let silence = now.duration_since(slot.last_heard);
-            let stalled = match slot.state {
-                State::Greeting | State::Loading => now.duration_since(slot.last_progress),
-                _ => silence,
-            };
-            if silence >= self.opts.worker_timeout {
-                self.lose(id, format!("no answer for {:.1} s", silence.as_secs_f64()));
+            let stalled = now.duration_since(slot.last_progress);
+            if stalled >= self.opts.worker_timeout {
+                self.lose(id, format!("no answer for {:.1} s", stalled.as_secs_f64()));
                 continue;
             }
             if stalled < self.opts.probe_interval
@@ -737,7 +731,7 @@ impl Master<'_> {
         slot.next_seq += 1;
         if slot.requests.is_empty() {
             // An idle worker's silence so far is not a hang.
-            slot.last_heard = now;
+            slot.last_progress = now;
         }
         slot.requests.push_back(Request {
             line,
