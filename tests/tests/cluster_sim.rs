@@ -1126,3 +1126,39 @@ fn worker_whose_link_only_carries_garbage_is_dropped() {
         "{err}"
     );
 }
+
+#[test]
+fn worker_alive_but_never_delivering_a_line_is_dropped() {
+    // At one flipped bit per 100 bytes, a worker's short frames (Hello, Ready, FenceAck) mostly
+    // arrive, but a 640-pixel line result (3.9 KB) never does. Fence answers keep coming, yet
+    // they are no progress: the worker is dropped instead of being asked forever.
+    let prepared = room(640, 4);
+    let cache = prepared.cache();
+    let noisy = SimWorker {
+        up: flips(1e-2, 11),
+        ..SimWorker::default()
+    };
+    let err = master(
+        &prepared,
+        vec![sim(1, noisy, &cache)],
+        None,
+        &options(2, 400),
+        &|_| {},
+    )
+    .expect_err("no line can get through");
+    let ClusterError::AllWorkersLost {
+        finished, workers, ..
+    } = &err
+    else {
+        panic!("expected AllWorkersLost, got {err}");
+    };
+    assert_eq!(*finished, 0, "{err}");
+    assert!(workers[0].frames_dropped > 0, "{err}");
+    assert!(
+        workers[0]
+            .lost
+            .as_deref()
+            .is_some_and(|l| l.starts_with("no answer")),
+        "{err}"
+    );
+}

@@ -20,8 +20,9 @@ use crate::cluster::schedule::LineScheduler;
 use embedded_io_adapters::std::FromStd;
 use std::collections::VecDeque;
 use std::io::{Read, Write};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strahl_core::pixel::Pixel;
 use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
@@ -238,19 +239,59 @@ fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &Sende
     }
 }
 
-/// The writer thread: queued frames go out until the queue closes; then the link is cut.
+/// A frame for the writer thread.
+#[derive(Debug)]
+struct Outgoing {
+    frame: Vec<u8>,
+    /// A scene chunk (its progress on the wire keeps a loading worker from timing out).
+    chunk: bool,
+}
+
+/// What the master and a writer thread share about one link's outgoing frames.
+#[derive(Debug)]
+struct Outbox {
+    /// Bytes queued and not yet written.
+    queued: AtomicUsize,
+    /// When the writer last finished writing a scene chunk (or the link was set up).
+    last_chunk_write: Mutex<Instant>,
+    /// Set when the worker is dropped: the writer stops at the next frame.
+    cut: AtomicBool,
+}
+
+impl Outbox {
+    fn last_chunk_write(&self) -> Instant {
+        *self
+            .last_chunk_write
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// The writer thread: queued frames go out until the queue closes or the worker is dropped;
+/// then the link is cut.
 fn write_loop(
     id: usize,
     mut writer: Box<dyn Write + Send>,
-    frames: &Receiver<Vec<u8>>,
+    frames: &Receiver<Outgoing>,
+    outbox: &Outbox,
     events: &Sender<Event>,
     closer: &(dyn Fn() + Send + Sync),
     done: &Sender<usize>,
 ) {
-    for frame in frames {
+    for Outgoing { frame, chunk } in frames {
+        if outbox.cut.load(Ordering::Relaxed) {
+            break;
+        }
         if let Err(e) = writer.write_all(&frame).and_then(|()| writer.flush()) {
             let _ = events.send(Event::Closed(id, format!("write failed: {e}")));
             break;
+        }
+        outbox.queued.fetch_sub(frame.len(), Ordering::Relaxed);
+        if chunk {
+            *outbox
+                .last_chunk_write
+                .lock()
+                .unwrap_or_else(|e| e.into_inner()) = Instant::now();
         }
     }
     closer();
@@ -281,21 +322,33 @@ struct Request {
 /// The master's view of one worker.
 struct Slot {
     report: WorkerReport,
-    tx: Option<Sender<Vec<u8>>>,
+    tx: Option<Sender<Outgoing>>,
+    outbox: Arc<Outbox>,
     closer: Arc<dyn Fn() + Send + Sync>,
     state: State,
-    /// The last valid message other than a `Dropped` notice (or the request that ended an idle
-    /// spell). Bad frames and drop notices are no progress: a worker whose link only carries
-    /// garbage is probed, then dropped, like a silent one.
+    /// The last step forward: its `Hello`, a `NeedScene` further on than before, `Ready`, a
+    /// result for a line it was asked for (or the request that ended an idle spell). Fence
+    /// answers, drop notices, bad frames and stale messages are no progress: a worker that is
+    /// alive but delivers nothing is dropped like a silent one.
     last_progress: Instant,
     last_probe: Instant,
     requests: VecDeque<Request>,
     next_seq: u32,
-    /// The pending fence: its number, and the first request sequence number sent after it.
-    fence: Option<(u32, u32)>,
+    /// The pending fence: its number, the first request sequence number sent after it, and
+    /// when it was sent.
+    fence: Option<(u32, u32, Instant)>,
     last_result: Option<Instant>,
+    /// Scene bytes queued for sending so far (from the last restart).
     scene_sent_upto: u32,
+    /// The furthest offset the worker has asked for.
+    scene_asked: Option<u32>,
+    /// Every request it got has its answer (requests lost on the link do not count).
+    idle: bool,
 }
+
+/// Scene bytes a master keeps queued for one worker at most: the two windows the protocol
+/// allows in flight, plus frame overhead.
+const SCENE_QUEUE_LIMIT: usize = 2 * SCENE_WINDOW as usize + 4096;
 
 /// The master loop's state.
 struct Master<'a> {
@@ -389,7 +442,7 @@ pub fn run_master(
 impl Master<'_> {
     fn add(&mut self, link: Link) {
         let id = self.slots.len();
-        let (tx, rx) = mpsc::channel::<Vec<u8>>();
+        let (tx, rx) = mpsc::channel::<Outgoing>();
         let closer: Arc<dyn Fn() + Send + Sync> = Arc::from(link.closer);
         let report = WorkerReport::new(&link.address, link.kind);
         let events = self.events_tx.clone();
@@ -403,14 +456,31 @@ impl Master<'_> {
         let writer = link.writer;
         let thread_closer = Arc::clone(&closer);
         let done = self.writers_done_tx.clone();
+        let now = Instant::now();
+        let outbox = Arc::new(Outbox {
+            queued: AtomicUsize::new(0),
+            last_chunk_write: Mutex::new(now),
+            cut: AtomicBool::new(false),
+        });
+        let thread_outbox = Arc::clone(&outbox);
         let writer_ok = std::thread::Builder::new()
             .name(format!("strahl-tx-{id}"))
-            .spawn(move || write_loop(id, writer, &rx, &events, &*thread_closer, &done))
+            .spawn(move || {
+                write_loop(
+                    id,
+                    writer,
+                    &rx,
+                    &thread_outbox,
+                    &events,
+                    &*thread_closer,
+                    &done,
+                );
+            })
             .is_ok();
-        let now = Instant::now();
         self.slots.push(Slot {
             report,
             tx: Some(tx),
+            outbox,
             closer,
             state: State::Greeting,
             last_progress: now,
@@ -420,6 +490,8 @@ impl Master<'_> {
             fence: None,
             last_result: None,
             scene_sent_upto: 0,
+            scene_asked: None,
+            idle: false,
         });
         if reader_ok && writer_ok {
             self.send_hello(id);
@@ -433,9 +505,12 @@ impl Master<'_> {
             return;
         };
         let frame = frame.to_vec();
-        if let Some(tx) = &self.slots[id].tx {
+        let chunk = matches!(msg, MasterMessage::SceneChunk { .. });
+        let slot = &self.slots[id];
+        if let Some(tx) = &slot.tx {
+            slot.outbox.queued.fetch_add(frame.len(), Ordering::Relaxed);
             // A closed queue means the writer already reported the link closed.
-            let _ = tx.send(frame);
+            let _ = tx.send(Outgoing { frame, chunk });
         }
     }
 
@@ -468,7 +543,7 @@ impl Master<'_> {
         let slot = &mut self.slots[id];
         let seq = slot.next_seq;
         slot.next_seq += 1;
-        slot.fence = Some((seq, seq));
+        slot.fence = Some((seq, seq, Instant::now()));
         self.send(id, &MasterMessage::Fence { seq });
     }
 
@@ -486,20 +561,47 @@ impl Master<'_> {
                 self.slots[id].report.frames_dropped += 1;
                 self.fence_after_loss(id);
             }
-            Event::Message(_, msg) => {
-                if !matches!(msg, Incoming::Dropped) {
-                    self.slots[id].last_progress = now;
-                }
-                self.take(id, msg, now);
-            }
+            Event::Message(_, msg) => self.take(id, msg, now),
         }
     }
 
-    /// After a frame was lost on a working worker's link, asks which requests survived.
+    /// After a frame was lost on a working worker's link, asks which requests survived (again,
+    /// if the pending fence is older than a probe interval: the fence itself may be lost).
     fn fence_after_loss(&mut self, id: usize) {
         let slot = &self.slots[id];
-        if slot.state == State::Working && slot.fence.is_none() {
+        let pending = slot
+            .fence
+            .is_some_and(|(_, _, sent)| sent.elapsed() < self.opts.probe_interval);
+        if slot.state == State::Working && !pending {
             self.send_fence(id);
+        }
+    }
+
+    /// Queues scene chunks for a loading worker: up to two windows past what it asked for, and
+    /// no more than [`SCENE_QUEUE_LIMIT`] bytes waiting at once.
+    fn pump_scene(&mut self, id: usize) {
+        let Some(asked) = self.slots[id].scene_asked else {
+            return;
+        };
+        let blob = Arc::clone(&self.job.blob);
+        let until = blob.len().min(asked.saturating_add(2 * SCENE_WINDOW));
+        while self.slots[id].scene_sent_upto < until
+            && self.slots[id].outbox.queued.load(Ordering::Relaxed) < SCENE_QUEUE_LIMIT
+        {
+            let at = self.slots[id].scene_sent_upto;
+            let bytes = blob.chunk_at(at);
+            if bytes.is_empty() {
+                break;
+            }
+            self.slots[id].scene_sent_upto = at + bytes.len() as u32;
+            self.send(
+                id,
+                &MasterMessage::SceneChunk {
+                    digest: blob.digest,
+                    offset: at,
+                    bytes,
+                },
+            );
         }
     }
 
@@ -524,6 +626,7 @@ impl Master<'_> {
                     );
                 }
                 let slot = &mut self.slots[id];
+                slot.last_progress = now;
                 slot.report.name = name;
                 slot.report.arch = arch;
                 slot.state = State::Loading;
@@ -534,38 +637,26 @@ impl Master<'_> {
                 offset,
                 restart,
             } if j == job => {
-                let len = self.job.blob.len();
                 let slot = &mut self.slots[id];
-                if slot.state == State::Greeting {
-                    slot.state = State::Loading;
+                if !matches!(slot.state, State::Greeting | State::Loading) {
+                    return;
                 }
+                slot.state = State::Loading;
+                if slot.scene_asked.is_none_or(|a| offset > a) {
+                    slot.last_progress = now;
+                }
+                slot.scene_asked = Some(slot.scene_asked.map_or(offset, |a| a.max(offset)));
                 if restart || offset > slot.scene_sent_upto {
                     slot.scene_sent_upto = offset;
                 }
-                let until = len.min(offset.saturating_add(2 * SCENE_WINDOW));
-                let blob = Arc::clone(&self.job.blob);
-                let digest = blob.digest;
-                while self.slots[id].scene_sent_upto < until {
-                    let at = self.slots[id].scene_sent_upto;
-                    let bytes = blob.chunk_at(at);
-                    if bytes.is_empty() {
-                        break;
-                    }
-                    self.slots[id].scene_sent_upto = at + bytes.len() as u32;
-                    self.send(
-                        id,
-                        &MasterMessage::SceneChunk {
-                            digest,
-                            offset: at,
-                            bytes,
-                        },
-                    );
-                }
+                self.pump_scene(id);
             }
             Incoming::Ready { job: j } if j == job => {
                 let slot = &mut self.slots[id];
                 if matches!(slot.state, State::Greeting | State::Loading) {
                     slot.state = State::Working;
+                    slot.last_progress = now;
+                    slot.idle = true;
                 }
             }
             Incoming::Line {
@@ -576,7 +667,7 @@ impl Master<'_> {
             } if j == job && line < self.job.height => self.take_line(id, line, rays, &pixels, now),
             Incoming::FenceAck { seq } => {
                 let slot = &mut self.slots[id];
-                if let Some((fence, upto)) = slot.fence {
+                if let Some((fence, upto, _)) = slot.fence {
                     if fence == seq {
                         slot.fence = None;
                         let lost: Vec<u32> = slot
@@ -609,22 +700,22 @@ impl Master<'_> {
 
     fn take_line(&mut self, id: usize, line: u32, rays: RayCounts, pixels: &[Pixel], now: Instant) {
         let slot = &mut self.slots[id];
-        let position = slot.requests.iter().position(|r| r.line == line);
-        let mut lost = Vec::new();
-        let mut started = slot.last_result;
-        if let Some(i) = position {
-            // Requests are answered in order: those before this one were lost.
-            lost.extend(slot.requests.drain(..i).map(|r| r.line));
-            if let Some(r) = slot.requests.pop_front() {
-                started = Some(started.map_or(r.sent, |t| t.max(r.sent)));
-            }
-        }
-        if let Some(t) = started {
-            slot.report.busy += now.saturating_duration_since(t);
+        // Only answers to requests count; anything else is a peer's mistake, not a pixel.
+        let Some(i) = slot.requests.iter().position(|r| r.line == line) else {
+            slot.report.frames_dropped += 1;
+            return;
+        };
+        slot.last_progress = now;
+        // Requests are answered in order: those before this one were lost.
+        let lost: Vec<u32> = slot.requests.drain(..i).map(|r| r.line).collect();
+        if let Some(r) = slot.requests.pop_front() {
+            let started = slot.last_result.map_or(r.sent, |t| t.max(r.sent));
+            slot.report.busy += now.saturating_duration_since(started);
         }
         slot.last_result = Some(now);
+        slot.idle = slot.requests.is_empty() && lost.is_empty();
         slot.report.rays += rays;
-        if self.sched.complete(line, position.is_some()) {
+        if self.sched.complete(line, true) {
             let w = self.job.width as usize;
             let at = line as usize * w;
             self.pixels[at..at + w].copy_from_slice(pixels);
@@ -654,6 +745,7 @@ impl Master<'_> {
         }
         slot.state = State::Gone;
         slot.tx = None;
+        slot.outbox.cut.store(true, Ordering::Relaxed);
         (slot.closer)();
         let lines: Vec<u32> = slot.requests.drain(..).map(|r| r.line).collect();
         let before = slot.report.reissued;
@@ -683,7 +775,13 @@ impl Master<'_> {
             if !waiting_on_it {
                 continue;
             }
-            let stalled = now.duration_since(slot.last_progress);
+            // While scene chunks are still going out, the worker cannot answer yet: the time
+            // counts from the last chunk written (probes do not count).
+            let since = match slot.state {
+                State::Loading => slot.last_progress.max(slot.outbox.last_chunk_write()),
+                _ => slot.last_progress,
+            };
+            let stalled = now.saturating_duration_since(since);
             if stalled >= self.opts.worker_timeout {
                 self.lose(id, format!("no answer for {:.1} s", stalled.as_secs_f64()));
                 continue;
@@ -706,6 +804,9 @@ impl Master<'_> {
     fn fill_windows(&mut self) {
         let now = Instant::now();
         for id in 0..self.slots.len() {
+            if self.slots[id].state == State::Loading {
+                self.pump_scene(id);
+            }
             if self.slots[id].state != State::Working {
                 continue;
             }
@@ -729,9 +830,10 @@ impl Master<'_> {
         let slot = &mut self.slots[id];
         let seq = slot.next_seq;
         slot.next_seq += 1;
-        if slot.requests.is_empty() {
-            // An idle worker's silence so far is not a hang.
+        if slot.idle {
+            // A worker that answered everything it was asked was not hanging while it waited.
             slot.last_progress = now;
+            slot.idle = false;
         }
         slot.requests.push_back(Request {
             line,
@@ -765,6 +867,13 @@ impl Master<'_> {
                     }
                 }
                 Err(_) => break,
+            }
+        }
+        // A writer stuck on a dead link: cut the link so its threads end.
+        for (id, slot) in self.slots.iter().enumerate() {
+            if slot.state != State::Gone && !finished.contains(&id) {
+                slot.outbox.cut.store(true, Ordering::Relaxed);
+                (slot.closer)();
             }
         }
         let workers: Vec<WorkerReport> = self.slots.into_iter().map(|s| s.report).collect();
