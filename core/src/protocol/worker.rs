@@ -333,18 +333,18 @@ impl<L: Read + Write> Session<'_, &mut L> {
                 })
             }
             ChunkOutcome::Complete => {
-                let assembler = core::mem::replace(
-                    assembler,
-                    // A placeholder that is dropped at once; `new` cannot fail for length 1.
-                    SceneAssembler::new(job.digest, 1).map_err(WorkerError::Encode)?,
-                );
-                job.stage = match prepare(assembler, self.node.scene_memory) {
-                    Ok(scene) => {
-                        cache.put(job.digest, Arc::clone(&scene));
-                        ready(scene)
-                    }
-                    Err(reason) => Stage::Refused(reason),
-                };
+                // Take the assembler out of the stage; the stage is set again just below.
+                let loading =
+                    core::mem::replace(&mut job.stage, Stage::Refused(Refusal::CorruptScene));
+                if let Stage::Loading { assembler, .. } = loading {
+                    job.stage = match prepare(assembler, self.node.scene_memory) {
+                        Ok(scene) => {
+                            cache.put(job.digest, Arc::clone(&scene));
+                            ready(scene)
+                        }
+                        Err(reason) => Stage::Refused(reason),
+                    };
+                }
                 let answer = match &job.stage {
                     Stage::Refused(reason) => WorkerMessage::Refused {
                         job: id,
