@@ -226,10 +226,11 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
             glam::Vec3::new(1e-3, -1e3, 0.0),
             glam::Vec3::new(0.0, -1e3, 1e-3),
         ];
+        // Behind the camera (at y = −100, looking along +y): every ray misses.
         d.triangles.truncate(1);
-        d.triangles[..]
-            .iter_mut()
-            .for_each(|t| t.points = [0, 1, 2]);
+        if let Some(t) = d.triangles.first_mut() {
+            t.points = [0, 1, 2];
+        }
         PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))?
     };
     let mut empty_times = Vec::with_capacity(runs);

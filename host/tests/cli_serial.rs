@@ -35,30 +35,11 @@ use strahl_serial::SerialPort;
 type TestResult = Result<(), Box<dyn Error>>;
 
 /// A wall facing the camera, a small triangle in front of it that shadows it, one shader each and
-/// a shadow-casting light off to the side (the scene of `cli.rs`).
-const DATA: &str = "\
-REM a wall and an occluder
-_PT -20 5 -15
-_PT 20 5 -15
-_PT 0 5 20
-_PT -2 2 -2
-_PT 2 2 -2
-_PT 0 2 2
-_SHD 0.05 0.05 0.05  0.8 0.8 0.8  0.3 0.3 0.3  10 0
-_SHD 0.1 0 0  0.9 0.2 0.1  0.5 0.5 0.5  20 0.3
-_TR 0 1 2 0
-_TR 3 4 5 1
-_LIGHT 8 -6 4  1 1 1  1 1
-";
+/// a shadow-casting light off to the side (the fixture `cli.rs` uses too).
+const DATA: &str = include_str!("fixtures/wall/room.txt");
 
 /// The configuration: camera 10 units in front of the origin; the tests override the size.
-const CONFIG: &str = "\
-$IMAGE_NAME out.bmp
-$IMAGE_WIDTH 32
-$IMAGE_HEIGHT 24
-$INPUT_DATA room.txt
-$CAM_POS_Y -10
-";
+const CONFIG: &str = include_str!("fixtures/wall/scene.cfg");
 
 /// Image size of every render here: small, since a pty carries every line.
 const WIDTH: u32 = 64;
