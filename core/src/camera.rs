@@ -1,4 +1,5 @@
-//! The seed's camera: a position, a tilt, a turn and a zoom, made into primary rays.
+//! Cameras: the seed's (a position, a tilt, a turn and a zoom) and FART's (position, look-at
+//! point, up vector and vertical field of view), both made into one [`CameraFrame`] of primary rays.
 //!
 //! Our reading of the seed (documented in `scenes/FORMATS.md`): Z is up. With both angles 0 the
 //! camera looks along +Y with +X to the right. `angle_x` tilts it (positive looks up), then
@@ -8,9 +9,61 @@
 use crate::ray::Ray;
 use glam::Vec3;
 
-/// A camera as the configuration file describes it.
+/// A camera as a scene file describes it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct Camera {
+pub enum Camera {
+    /// The seed's configuration-file camera.
+    Seed(SeedCamera),
+    /// A camera aimed at a point (FART, NFF).
+    LookAt(LookAtCamera),
+}
+
+impl Default for Camera {
+    fn default() -> Self {
+        Camera::Seed(SeedCamera::default())
+    }
+}
+
+/// A camera aimed at a point, with a vertical field of view.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct LookAtCamera {
+    /// Eye position.
+    pub position: Vec3,
+    /// The point at the image centre.
+    pub look_at: Vec3,
+    /// Which way is up (need not be perpendicular to the view, must not be parallel to it).
+    pub up: Vec3,
+    /// Angle between the top and bottom image edges, in degrees, in `(0, 180)`.
+    pub vfov_deg: f32,
+}
+
+impl Camera {
+    /// True if every number is finite and the camera defines a view.
+    pub fn is_valid(&self) -> bool {
+        match self {
+            Camera::Seed(c) => {
+                c.position.is_finite()
+                    && c.angle_x_deg.is_finite()
+                    && c.angle_z_deg.is_finite()
+                    && c.zoom.is_finite()
+            }
+            Camera::LookAt(c) => {
+                let forward = c.look_at - c.position;
+                c.position.is_finite()
+                    && c.look_at.is_finite()
+                    && c.up.is_finite()
+                    && c.vfov_deg > 0.0
+                    && c.vfov_deg < 180.0
+                    && forward != Vec3::ZERO
+                    && forward.cross(c.up).normalize_or_zero() != Vec3::ZERO
+            }
+        }
+    }
+}
+
+/// The seed's camera as the configuration file describes it.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SeedCamera {
     /// Eye position.
     pub position: Vec3,
     /// Tilt in degrees, positive looks up (`$CAM_POS_ANGLE_X`).
@@ -21,9 +74,9 @@ pub struct Camera {
     pub zoom: f32,
 }
 
-impl Default for Camera {
+impl Default for SeedCamera {
     fn default() -> Self {
-        Camera {
+        SeedCamera {
             position: Vec3::ZERO,
             angle_x_deg: 0.0,
             angle_z_deg: 0.0,
@@ -47,6 +100,29 @@ pub struct CameraFrame {
 impl CameraFrame {
     /// The frame of `cam` for an image of `width × height` square pixels.
     pub fn new(cam: &Camera, width: u32, height: u32) -> Self {
+        match cam {
+            Camera::Seed(c) => Self::seed(c, width, height),
+            Camera::LookAt(c) => Self::look_at(c, width, height),
+        }
+    }
+
+    fn look_at(cam: &LookAtCamera, width: u32, height: u32) -> Self {
+        let forward = (cam.look_at - cam.position).normalize_or_zero();
+        let right = forward.cross(cam.up).normalize_or_zero();
+        let up = right.cross(forward);
+        let half = libm::tanf(cam.vfov_deg.to_radians() * 0.5);
+        let aspect = height as f32 / width as f32;
+        CameraFrame {
+            position: cam.position,
+            forward: forward * (aspect / half),
+            right,
+            up,
+            width,
+            height,
+        }
+    }
+
+    fn seed(cam: &SeedCamera, width: u32, height: u32) -> Self {
         let ax = cam.angle_x_deg.to_radians();
         let az = cam.angle_z_deg.to_radians();
         let (sx, cx) = (libm::sinf(ax), libm::cosf(ax));
@@ -94,19 +170,19 @@ mod tests {
     #[test]
     fn positive_angles_look_up_and_turn_left() {
         let up = CameraFrame::new(
-            &Camera {
+            &Camera::Seed(SeedCamera {
                 angle_x_deg: 30.0,
-                ..Camera::default()
-            },
+                ..SeedCamera::default()
+            }),
             10,
             10,
         );
         assert!(up.ray(5.0, 5.0).dir.z > 0.0);
         let left = CameraFrame::new(
-            &Camera {
+            &Camera::Seed(SeedCamera {
                 angle_z_deg: 90.0,
-                ..Camera::default()
-            },
+                ..SeedCamera::default()
+            }),
             10,
             10,
         );
@@ -115,5 +191,23 @@ mod tests {
             d.x < -0.999 && d.y.abs() < 1e-6,
             "turned 90° left looks along -X: {d:?}"
         );
+    }
+
+    #[test]
+    fn look_at_camera_spans_its_vertical_field_of_view() {
+        let cam = Camera::LookAt(LookAtCamera {
+            position: Vec3::ZERO,
+            look_at: Vec3::new(0.0, 0.0, -5.0),
+            up: Vec3::Y,
+            vfov_deg: 90.0,
+        });
+        let f = CameraFrame::new(&cam, 200, 100);
+        let centre = f.ray(100.0, 50.0).dir.normalize();
+        assert!((centre - Vec3::NEG_Z).length() < 1e-6);
+        // 90° vertical: the top edge's centre is 45° up.
+        let top = f.ray(100.0, 0.0).dir.normalize();
+        assert!((top.y - top.z.abs()).abs() < 1e-6 && top.y > 0.0, "{top:?}");
+        assert!(f.ray(200.0, 50.0).dir.x > 0.0, "right edge is +X");
+        assert!(cam.is_valid());
     }
 }

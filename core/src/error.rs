@@ -26,6 +26,47 @@ pub enum SceneError {
     BadImageSize,
     /// More points or triangles than a `u32` index can address.
     TooLarge,
+    /// Triangle `triangle` names a shading normal that does not exist.
+    NormalIndexOutOfRange {
+        /// Index of the offending triangle.
+        triangle: u32,
+    },
+    /// Shading normal `normal` has zero length.
+    ZeroNormal {
+        /// Index into the scene's normals.
+        normal: u32,
+    },
+    /// Solid node `solid` has a parameter out of range (radius, size, height, plane normal) or a
+    /// transform that cannot be inverted.
+    BadSolid {
+        /// Index of the node.
+        solid: u32,
+    },
+    /// Solid node `solid` names an operand that is not an earlier node, or an object names a
+    /// node that does not exist.
+    SolidIndexOutOfRange {
+        /// Index of the node (or of the object).
+        solid: u32,
+    },
+    /// Solid node `solid` names a shader that does not exist.
+    SolidShaderOutOfRange {
+        /// Index of the node.
+        solid: u32,
+    },
+    /// CSG nesting deeper than [`crate::solid::MAX_CSG_DEPTH`].
+    CsgTooDeep,
+    /// The camera looks nowhere: zero view direction, up parallel to it, or a field of view
+    /// outside (0°, 180°).
+    BadCamera,
+    /// A setting is out of range: samples per side 1 to [`crate::scene::MAX_SAMPLES`], ambient
+    /// occlusion 0 to [`crate::scene::MAX_AMBIENT_OCCLUSION`], occlusion distance at least 0.
+    BadSettings,
+    /// Shader `shader` has a reflection or transparency outside `[0, 1]`, a sum of both above 1,
+    /// or an index of refraction that is not positive.
+    BadShader {
+        /// Index of the shader.
+        shader: u32,
+    },
 }
 
 impl fmt::Display for SceneError {
@@ -54,6 +95,39 @@ impl fmt::Display for SceneError {
             SceneError::TooLarge => write!(
                 f,
                 "the scene has more points or triangles than fit a u32 index"
+            ),
+            SceneError::NormalIndexOutOfRange { triangle } => {
+                write!(f, "triangle {triangle} names a normal that does not exist")
+            }
+            SceneError::ZeroNormal { normal } => write!(f, "normal {normal} has zero length"),
+            SceneError::BadSolid { solid } => write!(
+                f,
+                "solid {solid} has a size out of range or a transform that cannot be inverted"
+            ),
+            SceneError::SolidIndexOutOfRange { solid } => {
+                write!(f, "solid {solid} names an operand that is not an earlier solid")
+            }
+            SceneError::SolidShaderOutOfRange { solid } => {
+                write!(f, "solid {solid} names a shader that does not exist")
+            }
+            SceneError::CsgTooDeep => write!(
+                f,
+                "CSG is nested deeper than {} levels",
+                crate::solid::MAX_CSG_DEPTH
+            ),
+            SceneError::BadCamera => write!(
+                f,
+                "the camera has no view direction, an up vector along it, or a field of view outside (0, 180) degrees"
+            ),
+            SceneError::BadSettings => write!(
+                f,
+                "samples per side must be 1 to {}, ambient occlusion 0 to {}, occlusion distance at least 0",
+                crate::scene::MAX_SAMPLES,
+                crate::scene::MAX_AMBIENT_OCCLUSION
+            ),
+            SceneError::BadShader { shader } => write!(
+                f,
+                "shader {shader}: reflection and transparency must lie in [0, 1] with a sum of at most 1, and the index of refraction must be positive"
             ),
         }
     }

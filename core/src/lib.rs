@@ -8,11 +8,15 @@
 //!   magic epsilons everywhere below.
 //! - [`ray`], [`aabb`]: rays, their origin offsetting, and the robust slab test.
 //! - [`triangle`]: the watertight ray/triangle test that reports `t` with its error bound.
+//! - [`transform`], [`solid`]: analytic shapes placed by affine transforms, and CSG on them.
 //! - [`scene`]: the scene model (points, triangles, shaders, lights, camera, settings) and
 //!   [`scene::Scene`], the prepared form with smooth vertex normals and the octree.
 //! - [`octree`]: an arena octree (flat node array, `u32` handles) with closest-hit and any-hit queries.
-//! - [`camera`]: the seed's camera (position, tilt, turn, zoom) as primary rays.
-//! - [`shade`]: Phong shading, shadows and reflections with the 10% cut-off.
+//! - [`intersect`]: the scene's closest-hit and any-hit queries over triangles and solids.
+//! - [`camera`]: the seed's camera (position, tilt, turn, zoom) and FART's look-at camera.
+//! - [`sampling`], [`optics`]: deterministic sample patterns; reflection and Snell refraction.
+//! - [`shade`]: Phong shading, shadows, reflection and refraction with the 10% cut-off, ambient
+//!   occlusion.
 //! - [`pixel`]: fixed-point pixels and the one place where colours are clamped and quantised.
 //! - [`render`]: [`render::render_line`], the unit of work every executor calls.
 //! - [`protocol`]: the wire protocol (frames, messages, scene transfer) and the worker loop that
@@ -27,13 +31,18 @@ pub mod aabb;
 pub mod camera;
 pub mod error;
 pub mod float;
+pub mod intersect;
 pub mod octree;
+pub mod optics;
 pub mod pixel;
 pub mod protocol;
 pub mod ray;
 pub mod render;
+pub mod sampling;
 pub mod scene;
 pub mod shade;
+pub mod solid;
+pub mod transform;
 pub mod triangle;
 
 pub use glam::Vec3;

@@ -1,47 +1,147 @@
-//! Phong shading with shadows and reflections (seed sections 1.2.6, 3.2.2.2 and 3.2.3.1).
+//! Phong shading with shadows, reflection, refraction and ambient occlusion (seed sections 1.2.6,
+//! 3.2.2.2 and 3.2.3.1; FART's transparency).
 //!
 //! A path starts at a primary ray. At each hit the local colour is
-//! `ambient + Σ lights visibility · amount · colour · (diffuse · N·L + specular · max(0, R·V)^shininess)`
-//! (a light contributes only where `N·L > 0`), and the surface's colour is
-//! `(1 − r) · local + r · reflected`. The reflected ray is traced only while reflections are on
-//! and the path weight (product of `r` along it) stays at or above the cut-off, and never past the
-//! depth cap; otherwise the surface shows its local colour alone. Because reflection never
-//! branches, the path is a loop, not a recursion, and its floating-point order is fixed.
+//! `ambient · visible + Σ lights visibility · amount · colour · (diffuse · N·L + specular · max(0, R·V)^shininess)`
+//! (a light contributes only where `N·L > 0`; `visible` is the share of ambient-occlusion rays that
+//! escape, 1 with occlusion off), and the surface's colour is
+//! `(1 − r − t) · local + r · reflected + t · refracted`. A reflected or refracted ray is traced
+//! only while its switch is on, the path weight (product of the shares along it) stays at or above
+//! the cut-off, and the depth cap is not reached; a share not traced goes to the local colour.
+//! Total internal reflection sends the refracted share along the mirror ray. Rays that cannot
+//! change a pixel are not made: no lighting where the local share is 0, no shadow ray towards a
+//! light behind the surface, no occlusion rays for a shader without ambient colour.
+//!
+//! Branches are kept on an explicit stack and taken in a fixed order, so the floating-point sum of
+//! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
+//! nested transparent objects), so leaving an inner object returns to the outer one's index.
 
-use crate::octree::Hit;
+use crate::intersect::PrimitiveHit;
+use crate::optics::{reflect, refract};
 use crate::ray::{offset_ray_origin, Ray};
+use crate::sampling::{hemisphere, mix};
 use crate::scene::Scene;
+use crate::solid::prepared::SpanScratch;
 use crate::triangle::{hit_point, unit_normal};
+use alloc::vec::Vec;
 use glam::Vec3;
 
 /// Rays traced, by kind.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
-    /// Rays from the camera.
+    /// Rays from the camera, one per pixel.
     pub primary: u64,
+    /// Further camera rays of multisampling (`m² − 1` per pixel).
+    pub extra_samples: u64,
     /// Rays towards lights.
     pub shadow: u64,
     /// Mirror rays.
     pub reflection: u64,
+    /// Rays through transparent surfaces.
+    pub refraction: u64,
+    /// Ambient-occlusion rays.
+    pub occlusion: u64,
 }
 
 impl RayCounts {
     /// All rays together.
     pub fn total(&self) -> u64 {
-        self.primary + self.shadow + self.reflection
+        self.primary
+            + self.extra_samples
+            + self.shadow
+            + self.reflection
+            + self.refraction
+            + self.occlusion
     }
 }
 
 impl core::ops::AddAssign for RayCounts {
     fn add_assign(&mut self, o: RayCounts) {
         self.primary += o.primary;
+        self.extra_samples += o.extra_samples;
         self.shadow += o.shadow;
         self.reflection += o.reflection;
+        self.refraction += o.refraction;
+        self.occlusion += o.occlusion;
     }
 }
 
 /// Shadow rays end just short of the light: `t = 1` is the light itself, known to a few roundings.
 const SHADOW_T_MAX: f32 = 1.0 - 4.0 * crate::float::MACHINE_EPSILON;
+
+/// How many nested media a path remembers; deeper nesting forgets the outermost.
+const MAX_MEDIA: usize = 4;
+
+/// The transparent objects a ray is inside, innermost last, with their indices of refraction.
+#[derive(Clone, Copy, Debug)]
+struct Media {
+    keys: [u32; MAX_MEDIA],
+    iors: [f32; MAX_MEDIA],
+    len: usize,
+}
+
+impl Media {
+    const OUTSIDE: Media = Media {
+        keys: [0; MAX_MEDIA],
+        iors: [1.0; MAX_MEDIA],
+        len: 0,
+    };
+
+    /// Index of refraction around the ray (1 outside everything).
+    fn current(&self) -> f32 {
+        if self.len == 0 {
+            1.0
+        } else {
+            self.iors[self.len - 1]
+        }
+    }
+
+    fn entered(&self, key: u32, ior: f32) -> Media {
+        let mut m = *self;
+        if m.len == MAX_MEDIA {
+            m.keys.copy_within(1.., 0);
+            m.iors.copy_within(1.., 0);
+            m.len -= 1;
+        }
+        m.keys[m.len] = key;
+        m.iors[m.len] = ior;
+        m.len += 1;
+        m
+    }
+
+    fn ior_of(&self, key: u32) -> Option<f32> {
+        (0..self.len)
+            .rev()
+            .find(|&i| self.keys[i] == key)
+            .map(|i| self.iors[i])
+    }
+
+    fn left(&self, key: u32) -> Media {
+        let mut m = *self;
+        if let Some(i) = (0..m.len).rev().find(|&i| m.keys[i] == key) {
+            m.keys.copy_within(i + 1..m.len, i);
+            m.iors.copy_within(i + 1..m.len, i);
+            m.len -= 1;
+        }
+        m
+    }
+}
+
+/// A ray waiting to be traced, with its share of the pixel.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    ray: Ray,
+    weight: f32,
+    depth: u32,
+    media: Media,
+}
+
+/// Buffers a tracer reuses from ray to ray (one per render thread).
+#[derive(Clone, Debug, Default)]
+pub struct TraceScratch {
+    spans: SpanScratch,
+    pending: Vec<Pending>,
+}
 
 /// The surface at a hit, oriented towards the incoming ray.
 struct Surface {
@@ -51,43 +151,104 @@ struct Surface {
     geometric: Vec3,
     /// Smooth shading normal, unit length, on the same side as `geometric`.
     shading: Vec3,
+    /// True if the ray arrives from the outside (against the outward normal).
+    entering: bool,
+    /// Shader index.
+    shader: usize,
+    /// Which transparent object this surface bounds (for nested media).
+    medium: u32,
 }
 
-fn surface(scene: &Scene, ray: &Ray, hit: &Hit) -> Surface {
-    let t = hit.triangle as usize;
-    let p = &scene.triangle_points[t];
-    let (point, point_error) = hit_point(p, hit.tri.b);
-    // Hit triangles are never degenerate (the octree leaves those out); Z only avoids a panic path.
-    let mut geometric = unit_normal(p).unwrap_or(Vec3::Z);
-    if geometric.dot(ray.dir) > 0.0 {
-        geometric = -geometric;
+/// Marks medium keys of triangle meshes (keyed by shader) apart from solids (keyed by object).
+const MESH_MEDIUM: u32 = 1 << 31;
+
+fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
+    match hit {
+        PrimitiveHit::Triangle(t, h) => {
+            let t = *t as usize;
+            let p = &scene.triangle_points[t];
+            let (point, point_error) = hit_point(p, h.b);
+            // Hit triangles are never degenerate (the octree leaves those out); Z only avoids a
+            // panic path.
+            let outward = unit_normal(p).unwrap_or(Vec3::Z);
+            let entering = outward.dot(ray.dir) <= 0.0;
+            let geometric = if entering { outward } else { -outward };
+            let n = &scene.triangle_normals[t];
+            let b = h.b;
+            let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize_or_zero();
+            if shading == Vec3::ZERO {
+                shading = geometric;
+            } else if shading.dot(geometric) < 0.0 {
+                shading = -shading;
+            }
+            let shader = scene.triangle_shader[t];
+            Surface {
+                point,
+                point_error,
+                geometric,
+                shading,
+                entering,
+                shader: shader as usize,
+                medium: MESH_MEDIUM | shader,
+            }
+        }
+        PrimitiveHit::Solid(object, h) => {
+            let s = scene.solids.surface(ray, h);
+            let entering = s.normal.dot(ray.dir) <= 0.0;
+            let geometric = if entering { s.normal } else { -s.normal };
+            Surface {
+                point: s.point,
+                point_error: s.point_error,
+                geometric,
+                shading: geometric,
+                entering,
+                shader: s.shader as usize,
+                medium: *object,
+            }
+        }
     }
-    let n = &scene.triangle_normals[t];
-    let b = hit.tri.b;
-    let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize_or_zero();
-    if shading == Vec3::ZERO {
-        shading = geometric;
-    } else if shading.dot(geometric) < 0.0 {
-        shading = -shading;
+}
+
+/// The share of occlusion rays from `s` that escape within the scene's occlusion distance.
+fn ambient_visibility(
+    scene: &Scene,
+    s: &Surface,
+    seed: u32,
+    spans: &mut SpanScratch,
+    counts: &mut RayCounts,
+) -> f32 {
+    let n = scene.settings.ambient_occlusion;
+    let total = n * n;
+    let mut free = 0u32;
+    for k in 0..total {
+        let dir = hemisphere(s.shading, seed, k, n);
+        if dir.dot(s.geometric) <= 0.0 {
+            // Below the true surface: the surface itself occludes it.
+            continue;
+        }
+        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        counts.occlusion += 1;
+        if !scene.any_hit(&Ray::new(origin, dir), scene.ao_distance, spans) {
+            free += 1;
+        }
     }
-    Surface {
-        point,
-        point_error,
-        geometric,
-        shading,
-    }
+    free as f32 / total as f32
 }
 
 /// The local (Phong) colour at a surface seen from direction `view` (unit, towards the eye).
 fn local_color(
     scene: &Scene,
     s: &Surface,
-    shader: usize,
     view: Vec3,
+    seed: u32,
+    spans: &mut SpanScratch,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let sh = &scene.shaders[shader];
+    let sh = &scene.shaders[s.shader];
     let mut color = sh.ambient;
+    if scene.settings.ambient_occlusion > 0 && sh.ambient != Vec3::ZERO {
+        color *= ambient_visibility(scene, s, seed, spans, counts);
+    }
     for light in &scene.lights {
         let to_light = light.position - s.point;
         let dist = to_light.length();
@@ -103,10 +264,7 @@ fn local_color(
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
-            if scene
-                .octree
-                .any_hit(&scene.triangle_points, &shadow, SHADOW_T_MAX)
-            {
+            if scene.any_hit(&shadow, SHADOW_T_MAX, spans) {
                 continue;
             }
         }
@@ -123,46 +281,102 @@ fn local_color(
     color
 }
 
-/// The colour seen along a primary ray, following its reflections.
-pub fn trace(scene: &Scene, primary: Ray, counts: &mut RayCounts) -> Vec3 {
-    let settings = &scene.settings;
-    let mut ray = primary;
-    let mut weight = 1.0f32;
-    let mut color = Vec3::ZERO;
-    let mut depth = 0u32;
-    loop {
-        let Some(hit) = scene
-            .octree
-            .closest_hit(&scene.triangle_points, &ray, f32::INFINITY)
-        else {
-            color += settings.background * weight;
-            return color;
-        };
-        let s = surface(scene, &ray, &hit);
-        let view = -ray.dir.normalize();
-        let shader = scene.triangle_shader[hit.triangle as usize] as usize;
-        let local = local_color(scene, &s, shader, view, counts);
-        let r = scene.shaders[shader].reflection.clamp(0.0, 1.0);
-        let next_weight = weight * r;
-        let reflect = settings.reflections
-            && r > 0.0
-            && next_weight >= settings.min_reflection_weight
-            && depth < settings.max_reflection_depth;
-        if !reflect {
-            color += local * weight;
-            return color;
-        }
-        color += local * ((1.0 - r) * weight);
-        weight = next_weight;
-        depth += 1;
-        // Mirror about the shading normal; if that dips under the surface, about the true one.
-        let d = -view;
-        let mut dir = d - s.shading * (2.0 * d.dot(s.shading));
-        if dir.dot(s.geometric) <= 0.0 {
-            dir = d - s.geometric * (2.0 * d.dot(s.geometric));
-        }
-        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
-        ray = Ray::new(origin, dir);
-        counts.reflection += 1;
+/// The direction and media of the ray refracted at `s`, or `None` on total internal reflection.
+fn refracted(scene: &Scene, s: &Surface, d: Vec3, media: &Media) -> Option<(Vec3, Media)> {
+    let ior = scene.shaders[s.shader].ior;
+    let (n1, n2, next) = if s.entering {
+        (media.current(), ior, media.entered(s.medium, ior))
+    } else {
+        let next = media.left(s.medium);
+        (media.ior_of(s.medium).unwrap_or(ior), next.current(), next)
+    };
+    let mut dir = refract(d, s.shading, n1, n2)?;
+    if dir.dot(s.geometric) >= 0.0 {
+        // The smooth normal bent the ray back out; use the true one.
+        dir = refract(d, s.geometric, n1, n2)?;
     }
+    Some((dir, next))
+}
+
+/// The colour seen along a primary ray, following its reflections and refractions. `seed`
+/// selects the sample pattern of ambient occlusion (see [`crate::sampling`]).
+pub fn trace(
+    scene: &Scene,
+    primary: Ray,
+    seed: u32,
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    let settings = &scene.settings;
+    let mut color = Vec3::ZERO;
+    scratch.pending.clear();
+    scratch.pending.push(Pending {
+        ray: primary,
+        weight: 1.0,
+        depth: 0,
+        media: Media::OUTSIDE,
+    });
+    let mut bounce = 0u32;
+    while let Some(p) = scratch.pending.pop() {
+        let spans = &mut scratch.spans;
+        let Some(hit) = scene.closest_hit(&p.ray, f32::INFINITY, spans) else {
+            color += settings.background * p.weight;
+            continue;
+        };
+        let s = surface(scene, &p.ray, &hit);
+        let view = -p.ray.dir.normalize();
+        let d = -view;
+        let sh = &scene.shaders[s.shader];
+        let r = sh.reflection.clamp(0.0, 1.0);
+        let tr = sh.transparency.clamp(0.0, 1.0 - r);
+        let cutoff = settings.min_reflection_weight;
+        let deeper = p.depth < settings.max_depth;
+        // The mirror ray, unless its share is too small; the refracted ray likewise, and total
+        // internal reflection adds the refracted share to the mirror ray.
+        let mut mirror_share = 0.0f32;
+        if settings.reflections && r > 0.0 && p.weight * r >= cutoff && deeper {
+            mirror_share = r;
+        }
+        let mut refraction = None;
+        if settings.refractions && tr > 0.0 && p.weight * tr >= cutoff && deeper {
+            match refracted(scene, &s, d, &p.media) {
+                Some(t) => refraction = Some(t),
+                None => mirror_share += tr,
+            }
+        }
+        let refract_share = if refraction.is_some() { tr } else { 0.0 };
+        let local_share = 1.0 - mirror_share - refract_share;
+        if local_share > 0.0 {
+            let seed = mix(seed, bounce);
+            let local = local_color(scene, &s, view, seed, spans, counts);
+            color += local * (local_share * p.weight);
+        }
+        bounce += 1;
+        if let Some((dir, media)) = refraction {
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+            scratch.pending.push(Pending {
+                ray: Ray::new(origin, dir),
+                weight: p.weight * tr,
+                depth: p.depth + 1,
+                media,
+            });
+            counts.refraction += 1;
+        }
+        if mirror_share > 0.0 {
+            // Mirror about the shading normal; if that dips under the surface, about the true one.
+            let mut dir = reflect(d, s.shading);
+            if dir.dot(s.geometric) <= 0.0 {
+                dir = reflect(d, s.geometric);
+            }
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+            scratch.pending.push(Pending {
+                ray: Ray::new(origin, dir),
+                weight: p.weight * mirror_share,
+                depth: p.depth + 1,
+                media: p.media,
+            });
+            counts.reflection += 1;
+        }
+    }
+    color
 }

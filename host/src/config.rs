@@ -4,7 +4,7 @@ use crate::error::LoadError;
 use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::Camera;
+use strahl_core::camera::SeedCamera;
 use strahl_core::scene::MAX_IMAGE_SIDE;
 
 /// Everything a configuration file sets, with the documented defaults for what it leaves out.
@@ -28,7 +28,7 @@ pub struct Config {
     /// `$COLOR_BG_R/G/B` (default black).
     pub background: Vec3,
     /// `$CAM_POS_*` (default: at the origin, angles 0, zoom 1).
-    pub camera: Camera,
+    pub camera: SeedCamera,
     /// `$INDEX_BASE`, our extension: 0 or 1 (default 0).
     pub index_base: u32,
 }
@@ -43,7 +43,7 @@ impl Default for Config {
             shadows: true,
             reflections: true,
             background: Vec3::ZERO,
-            camera: Camera::default(),
+            camera: SeedCamera::default(),
             index_base: 0,
         }
     }

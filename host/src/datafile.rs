@@ -115,6 +115,8 @@ fn shader(line: &Line<'_>) -> Result<Shader, LoadError> {
         )));
     }
     Ok(Shader {
+        transparency: 0.0,
+        ior: 1.0,
         ambient: Vec3::new(v[0], v[1], v[2]),
         diffuse: Vec3::new(v[3], v[4], v[5]),
         specular: Vec3::new(v[6], v[7], v[8]),
@@ -149,6 +151,7 @@ fn triangle(line: &Line<'_>, index_base: u32) -> Result<TriangleDesc, LoadError>
         *o = v - index_base;
     }
     Ok(TriangleDesc {
+        normals: None,
         points: [idx[0], idx[1], idx[2]],
         shader: idx[3],
     })

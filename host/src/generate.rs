@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use std::fmt::Write as _;
-use strahl_core::camera::Camera;
+use strahl_core::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// A small deterministic random generator (xorshift64*), for scenes and tests.
@@ -76,6 +76,7 @@ impl MeshBuilder {
 
     fn tri(&mut self, a: u32, b: u32, c: u32, shader: u32) {
         self.triangles.push(TriangleDesc {
+            normals: None,
             points: [a, b, c],
             shader,
         });
@@ -180,6 +181,8 @@ impl MeshBuilder {
 
 fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflection: f32) -> Shader {
     Shader {
+        transparency: 0.0,
+        ior: 1.0,
         ambient,
         diffuse,
         specular,
@@ -360,10 +363,12 @@ pub fn large(min_triangles: u32) -> SceneDesc {
         for i in 0..n {
             let a = base + j * row + i;
             m.triangles.push(TriangleDesc {
+                normals: None,
                 points: [a, a + 1, a + row + 1],
                 shader: 0,
             });
             m.triangles.push(TriangleDesc {
+                normals: None,
                 points: [a, a + row + 1, a + row],
                 shader: 0,
             });
@@ -406,12 +411,12 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             casts_shadows: false,
         },
     ];
-    let camera = Camera {
+    let camera = Camera::Seed(SeedCamera {
         position: Vec3::new(0.0, -160.0, 60.0),
         angle_x_deg: -18.0,
         angle_z_deg: 0.0,
         zoom: 1.2,
-    };
+    });
     SceneDesc {
         points: m.points,
         triangles: m.triangles,
@@ -549,7 +554,9 @@ pub fn run(args: &GenerateArgs) -> anyhow::Result<()> {
                 desc.triangles.len()
             );
             write_atomically(&dir.join("LARGE.txt"), &write_data_file(&desc, &header))?;
-            let c = &desc.camera;
+            let Camera::Seed(c) = &desc.camera else {
+                anyhow::bail!("the large scene has a seed camera");
+            };
             let cfg = format!(
                 "REM Strahl large benchmark scene ({} triangles)\n\
                  $IMAGE_NAME large.bmp\n$IMAGE_WIDTH 1024\n$IMAGE_HEIGHT 768\n\

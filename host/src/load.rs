@@ -5,6 +5,7 @@ use crate::config::read_config;
 use crate::datafile::read_data;
 use crate::error::LoadError;
 use std::path::{Path, PathBuf};
+use strahl_core::camera::Camera;
 use strahl_core::scene::{RenderSettings, SceneDesc, MAX_IMAGE_SIDE};
 
 /// Settings from the command line; each one given replaces the configuration file's.
@@ -98,7 +99,10 @@ pub fn load_config_scene(
         triangles: data.triangles,
         shaders: data.shaders,
         lights: data.lights,
-        camera: cfg.camera,
+        normals: Vec::new(),
+        solids: Vec::new(),
+        objects: Vec::new(),
+        camera: Camera::Seed(cfg.camera),
         settings: RenderSettings {
             width,
             height,

@@ -121,6 +121,7 @@ mod tests {
             primary: 3,
             shadow: 2,
             reflection: 1,
+            ..RayCounts::default()
         });
         assert_eq!(p.rays.load(Ordering::Relaxed), 6);
     }

@@ -103,6 +103,7 @@ mod tests {
                 primary: 307_200,
                 shadow: 123,
                 reflection: 45,
+                ..RayCounts::default()
             },
             workers: 2,
             output: PathBuf::from("output.bmp"),

@@ -43,9 +43,12 @@ fn seed_example_loads() {
         ),
         (4, 2, 1, 1)
     );
-    assert_eq!(d.camera.position, Vec3::new(0.0, -100.0, 25.0));
+    let strahl_core::camera::Camera::Seed(cam) = d.camera else {
+        panic!("a seed scene has the seed's camera: {:?}", d.camera);
+    };
+    assert_eq!(cam.position, Vec3::new(0.0, -100.0, 25.0));
     assert_eq!(
-        (d.camera.angle_x_deg, d.camera.angle_z_deg, d.camera.zoom),
+        (cam.angle_x_deg, cam.angle_z_deg, cam.zoom),
         (-15.0, 0.0, 1.5)
     );
     let st = d.settings;
@@ -56,8 +59,8 @@ fn seed_example_loads() {
     assert_eq!(st.background, Vec3::ZERO);
     let def = RenderSettings::default();
     assert_eq!(
-        (st.min_reflection_weight, st.max_reflection_depth),
-        (def.min_reflection_weight, def.max_reflection_depth)
+        (st.min_reflection_weight, st.max_depth),
+        (def.min_reflection_weight, def.max_depth)
     );
 }
 

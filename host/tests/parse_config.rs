@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::Camera;
+use strahl_core::camera::SeedCamera;
 use strahl_host::config::{parse_config, read_config, Config};
 use strahl_host::error::LoadError;
 
@@ -38,7 +38,7 @@ fn seed_example_parses_with_its_values() {
             shadows: true,
             reflections: false,
             background: Vec3::ZERO,
-            camera: Camera {
+            camera: SeedCamera {
                 position: Vec3::new(0.0, -100.0, 25.0),
                 angle_x_deg: -15.0,
                 angle_z_deg: 0.0,
@@ -65,7 +65,7 @@ fn empty_file_gives_the_documented_defaults() {
     assert_eq!(cfg.background, Vec3::ZERO);
     assert_eq!(
         cfg.camera,
-        Camera {
+        SeedCamera {
             position: Vec3::ZERO,
             angle_x_deg: 0.0,
             angle_z_deg: 0.0,
@@ -91,7 +91,7 @@ fn every_variable_is_read() {
     assert_eq!(cfg.background, Vec3::new(0.25, 1.0, 0.0));
     assert_eq!(
         cfg.camera,
-        Camera {
+        SeedCamera {
             position: Vec3::new(1.5, -20.0, 3.0),
             angle_x_deg: 10.0,
             angle_z_deg: -370.0,

@@ -50,6 +50,8 @@ fn every_record_is_read() {
     assert_eq!(
         d.shaders,
         vec![Shader {
+            transparency: 0.0,
+            ior: 1.0,
             ambient: Vec3::new(0.1, 0.2, 0.3),
             diffuse: Vec3::new(0.4, 0.5, 0.6),
             specular: Vec3::new(0.7, 0.8, 0.9),
@@ -86,6 +88,7 @@ fn every_record_is_read() {
     assert_eq!(
         d.triangles,
         vec![TriangleDesc {
+            normals: None,
             points: [0, 1, 2],
             shader: 0
         }]
@@ -99,10 +102,12 @@ fn index_base_1_counts_from_1() {
         d.triangles,
         vec![
             TriangleDesc {
+                normals: None,
                 points: [0, 1, 2],
                 shader: 0
             },
             TriangleDesc {
+                normals: None,
                 points: [2, 1, 0],
                 shader: 0
             }

@@ -10,7 +10,7 @@
 
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
-use strahl_core::camera::Camera;
+use strahl_core::camera::{Camera, SeedCamera};
 use strahl_core::error::{ProtocolError, SceneError};
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
@@ -297,6 +297,7 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
                 primary: 16,
                 shadow: 40,
                 reflection: 3,
+                ..RayCounts::default()
             },
             pixels,
         },
@@ -346,12 +347,12 @@ fn worker_variant(m: &WorkerMessage<'_>) -> usize {
 /// A small real scene: the demo room seen by the seed's example camera.
 fn small_room() -> SceneDesc {
     let mut desc = strahl_host::generate::room();
-    desc.camera = Camera {
+    desc.camera = Camera::Seed(SeedCamera {
         position: Vec3::new(0.0, -100.0, 25.0),
         angle_x_deg: -15.0,
         angle_z_deg: 0.0,
         zoom: 1.5,
-    };
+    });
     desc.settings.width = 24;
     desc.settings.height = 16;
     desc
@@ -370,8 +371,11 @@ fn largest_line_result_fits_max_frame_len() {
         line: u32::MAX,
         rays: RayCounts {
             primary: u64::MAX,
+            extra_samples: u64::MAX,
             shadow: u64::MAX,
             reflection: u64::MAX,
+            refraction: u64::MAX,
+            occlusion: u64::MAX,
         },
         pixels: &pixels,
     };
@@ -552,6 +556,7 @@ fn every_single_bit_flip_is_detected_and_the_next_frame_survives() {
                 primary: 10,
                 shadow: 0,
                 reflection: 300,
+                ..RayCounts::default()
             },
             pixels: &pixels,
         }),

@@ -10,7 +10,7 @@
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
 use std::sync::Arc;
-use strahl_core::camera::Camera;
+use strahl_core::camera::{Camera, SeedCamera};
 use strahl_core::error::SceneError;
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
@@ -270,12 +270,12 @@ const HEIGHT: u32 = 16;
 /// The demo room, small, seen by the seed's example camera.
 fn room_desc() -> SceneDesc {
     let mut desc = strahl_host::generate::room();
-    desc.camera = Camera {
+    desc.camera = Camera::Seed(SeedCamera {
         position: Vec3::new(0.0, -100.0, 25.0),
         angle_x_deg: -15.0,
         angle_z_deg: 0.0,
         zoom: 1.5,
-    };
+    });
     desc.settings.width = WIDTH;
     desc.settings.height = HEIGHT;
     desc

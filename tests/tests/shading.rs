@@ -1,7 +1,7 @@
 //! The shading rules of `scenes/FORMATS.md`, checked on crafted scenes with known answers.
 
 use glam::Vec3;
-use strahl_core::camera::{Camera, CameraFrame};
+use strahl_core::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
 use strahl_core::render::render_line;
@@ -11,6 +11,8 @@ use strahl_host::generate::MeshBuilder;
 
 fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {
     Shader {
+        transparency: 0.0,
+        ior: 1.0,
         ambient: Vec3::splat(ambient),
         diffuse: Vec3::splat(diffuse),
         specular: Vec3::ZERO,
@@ -130,7 +132,7 @@ fn mirrors(r: f32) -> SceneDesc {
 fn perfect_mirrors_stop_at_the_depth_cap() {
     let desc = mirrors(1.0);
     let (img, counts) = render(&desc);
-    let cap = u64::from(desc.settings.max_reflection_depth);
+    let cap = u64::from(desc.settings.max_depth);
     assert_eq!(
         counts.reflection,
         9 * cap,
@@ -155,12 +157,12 @@ fn reflection_stops_under_ten_percent_weight() {
 
 #[test]
 fn seed_example_camera_looks_at_the_room_from_the_front_and_above() {
-    let cam = Camera {
+    let cam = Camera::Seed(SeedCamera {
         position: Vec3::new(0.0, -100.0, 25.0),
         angle_x_deg: -15.0,
         angle_z_deg: 0.0,
         zoom: 1.5,
-    };
+    });
     let f = CameraFrame::new(&cam, 640, 480);
     let centre = f.ray(320.0, 240.0).dir.normalize();
     assert!(centre.y > 0.9, "looks into the room (+Y): {centre:?}");

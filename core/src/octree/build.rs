@@ -1,4 +1,7 @@
-//! Octree construction: split at the centre, file each triangle in every child it touches.
+//! Octree construction: split at the centre, file each primitive in every child it touches.
+//!
+//! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
+//! `T..`): a triangle is filed by the exact triangle/box test, a solid by its world bounding box.
 
 use super::overlap::triangle_box_overlap;
 use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
@@ -14,6 +17,7 @@ const MAX_DUPLICATION: usize = 2;
 
 struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
+    /// World boxes of primitives `T..` (solids); only the bounded ones are filed.
     boxes: Vec<Aabb>,
     params: OctreeParams,
     /// How far every cell is grown before the overlap test: the rounding error bound of the test
@@ -33,6 +37,16 @@ impl Octree {
     ///
     /// Degenerate (zero-area) triangles are left out: the watertight test never hits them.
     pub fn build(triangles: &[[Vec3; 3]], params: &OctreeParams) -> Octree {
+        Self::build_mixed(triangles, &[], params)
+    }
+
+    /// Builds the octree over `triangles` (primitives `0..T`) and solids with the world boxes
+    /// `solids` (primitives `T..`). A solid whose box is `None` (unbounded) is not filed.
+    pub fn build_mixed(
+        triangles: &[[Vec3; 3]],
+        solids: &[Option<Aabb>],
+        params: &OctreeParams,
+    ) -> Octree {
         let params = OctreeParams {
             max_depth: params.max_depth.min(MAX_DEPTH_LIMIT),
             max_leaf_triangles: params.max_leaf_triangles.max(1),
@@ -47,6 +61,17 @@ impl Octree {
                 filed.push(i as u32);
                 bounds.min = bounds.min.min(b.min);
                 bounds.max = bounds.max.max(b.max);
+            }
+        }
+        for (j, b) in solids.iter().enumerate() {
+            match b {
+                Some(b) => {
+                    boxes.push(*b);
+                    filed.push((triangles.len() + j) as u32);
+                    bounds.min = bounds.min.min(b.min);
+                    bounds.max = bounds.max.max(b.max);
+                }
+                None => boxes.push(Aabb::EMPTY),
             }
         }
         if bounds.is_empty() {
@@ -66,7 +91,7 @@ impl Octree {
             refs: Vec::with_capacity(4 * filed.len()),
             masks: Vec::with_capacity(filed.len()),
             stats: OctreeStats {
-                triangles: triangles.len() as u32,
+                triangles: (triangles.len() + solids.len()) as u32,
                 filed_triangles: filed.len() as u32,
                 ..OctreeStats::default()
             },
@@ -189,12 +214,16 @@ impl Builder<'_> {
         counts
     }
 
-    /// True if triangle `t` touches the child box `cb` grown by the margin.
+    /// True if primitive `t` touches the child box `cb` grown by the margin.
     #[inline]
     fn touches(&self, cb: &Aabb, t: usize) -> bool {
         let m = Vec3::splat(self.margin);
-        let p = &self.triangles[t];
         let (lo, hi) = (cb.min - m, cb.max + m);
+        let Some(p) = self.triangles.get(t) else {
+            // A solid: its world box against the grown cell.
+            let b = &self.boxes[t];
+            return b.min.cmple(hi).all() && b.max.cmpge(lo).all();
+        };
         // A vertex inside the grown box is a touch (accepting it can only file more, never
         // fewer); otherwise the exact separating-axis test decides.
         if p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all()) {

@@ -1,5 +1,7 @@
 //! The octree: an arena of nodes with `u32` handles over the scene's triangles.
 //!
+//! The octree files primitives by index: triangles first, then bounded solids (see `build.rs`);
+//! the generic queries take a closure that tests one primitive.
 //! - [`Node`]s live in one flat `Vec`; the eight children of an interior node are stored together
 //!   and addressed by the index of the first. A leaf is a range of [`Octree::indices`], the
 //!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
@@ -125,19 +127,39 @@ pub struct Hit {
     pub tri: TriangleHit,
 }
 
-/// True if `a` is closer than `b`: smaller `t`, ties to the smaller triangle index.
+/// A hit of some primitive, as the generic queries need it: its `t` and that value's error bound.
+pub trait RayHit: Copy {
+    /// The ray parameter of the hit.
+    fn t(&self) -> f32;
+    /// Bound on the error of [`RayHit::t`].
+    fn t_error(&self) -> f32;
+}
+
+impl RayHit for TriangleHit {
+    #[inline]
+    fn t(&self) -> f32 {
+        self.t
+    }
+    #[inline]
+    fn t_error(&self) -> f32 {
+        self.t_error
+    }
+}
+
+/// True if a hit at `t` of primitive `index` is closer than `best`: smaller `t`, ties to the
+/// smaller index.
 #[inline]
-fn closer(t: f32, triangle: u32, best: &Option<Hit>) -> bool {
+pub fn closer<H: RayHit>(t: f32, index: u32, best: &Option<(u32, H)>) -> bool {
     match best {
         None => true,
-        Some(b) => t < b.tri.t || (t == b.tri.t && triangle < b.triangle),
+        Some((i, b)) => t < b.t() || (t == b.t() && index < *i),
     }
 }
 
 /// Tests the ray against every triangle: the reference for the octree's closest hit.
 pub fn brute_force_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
     let frame = RayFrame::new(ray);
-    let mut best: Option<Hit> = None;
+    let mut best: Option<(u32, TriangleHit)> = None;
     for (i, p) in triangles.iter().enumerate() {
         // Degenerate triangles are not filed in the octree either.
         if crate::triangle::unit_normal(p).is_none() {
@@ -145,14 +167,11 @@ pub fn brute_force_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -
         }
         if let Some(h) = intersect(&frame, p, t_max) {
             if closer(h.t, i as u32, &best) {
-                best = Some(Hit {
-                    triangle: i as u32,
-                    tri: h,
-                });
+                best = Some((i as u32, h));
             }
         }
     }
-    best
+    best.map(|(triangle, tri)| Hit { triangle, tri })
 }
 
 impl Octree {

@@ -6,7 +6,7 @@
 //! rounding error bound of that crossing so a ray near a plane visits both cells.
 
 use super::build::child_box;
-use super::{closer, Hit, Octree, MAX_DEPTH_LIMIT};
+use super::{closer, Hit, Octree, RayHit, MAX_DEPTH_LIMIT};
 use crate::aabb::Aabb;
 use crate::float::{gamma, MACHINE_EPSILON};
 use crate::ray::Ray;
@@ -29,25 +29,37 @@ impl Octree {
     /// triangle index, exactly as [`super::brute_force_closest_hit`] finds it.
     pub fn closest_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
         let frame = RayFrame::new(ray);
-        let mut best: Option<Hit> = None;
-        // Triangle tests are bounded by the best hit so far, loosened by four roundings so that
-        // only hits that lose the comparison anyway are cut early (the winner stays exact).
+        self.closest_hit_with(ray, t_max, |i, bound| {
+            intersect(&frame, &triangles[i as usize], bound)
+        })
+        .map(|(triangle, tri)| Hit { triangle, tri })
+    }
+
+    /// The closest hit of `ray` with `0 < t < t_max` among the filed primitives, each tested by
+    /// `test(index, bound)`, which returns a hit with `t < bound` or `None`. Ties go to the
+    /// smallest index, so the result does not depend on the order cells are visited in.
+    pub fn closest_hit_with<H: RayHit>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut test: impl FnMut(u32, f32) -> Option<H>,
+    ) -> Option<(u32, H)> {
+        let mut best: Option<(u32, H)> = None;
+        // Tests are bounded by the best hit so far, loosened by four roundings so that only hits
+        // that lose the comparison anyway are cut early (the winner stays exact).
         let mut bound = t_max;
         self.walk(ray, t_max, |indices| {
             for &i in indices {
-                if let Some(h) = intersect(&frame, &triangles[i as usize], bound) {
-                    if closer(h.t, i, &best) {
-                        best = Some(Hit {
-                            triangle: i,
-                            tri: h,
-                        });
-                        bound = bound.min(h.t * (1.0 + 4.0 * MACHINE_EPSILON));
+                if let Some(h) = test(i, bound) {
+                    if closer(h.t(), i, &best) {
+                        best = Some((i, h));
+                        bound = bound.min(h.t() * (1.0 + 4.0 * MACHINE_EPSILON));
                     }
                 }
             }
             // Cells that start beyond the best hit (plus its error bound) cannot hold a closer one.
             match &best {
-                Some(b) => b.tri.t + b.tri.t_error,
+                Some((_, b)) => b.t() + b.t_error(),
                 None => f32::INFINITY,
             }
         });
@@ -57,11 +69,17 @@ impl Octree {
     /// True if `ray` hits any triangle with `0 < t < t_max` (shadow rays). Stops at the first hit.
     pub fn any_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> bool {
         let frame = RayFrame::new(ray);
+        self.any_hit_with(ray, t_max, |i| {
+            intersect(&frame, &triangles[i as usize], t_max).is_some()
+        })
+    }
+
+    /// True if `test(index)` holds for any filed primitive in a cell the ray crosses before
+    /// `t_max`. Stops at the first.
+    pub fn any_hit_with(&self, ray: &Ray, t_max: f32, mut test: impl FnMut(u32) -> bool) -> bool {
         let mut found = false;
         self.walk(ray, t_max, |indices| {
-            found = indices
-                .iter()
-                .any(|&i| intersect(&frame, &triangles[i as usize], t_max).is_some());
+            found = indices.iter().any(|&i| test(i));
             if found {
                 f32::NEG_INFINITY
             } else {

@@ -1,0 +1,305 @@
+//! Solids prepared for rendering: placements inverted once, world bounds, and ray queries.
+//!
+//! [`Solids`] holds the arena with each leaf's [`Placement`]. [`Solids::first_hit`] evaluates one
+//! scene object (a root node) against a ray: it collects the spans of every leaf below the root
+//! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
+//! combines them bottom-up, and returns the first boundary in front of the origin.
+
+use super::shape::{self, Face};
+use super::spans::{combine, Boundary, Span};
+use super::{CsgOp, Shape, SolidNode};
+use crate::aabb::Aabb;
+use crate::float::gamma;
+use crate::octree::RayHit;
+use crate::ray::Ray;
+use crate::transform::Placement;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// A node of the prepared arena.
+#[derive(Clone, Copy, Debug)]
+pub enum PreparedNode {
+    /// A placed shape.
+    Leaf {
+        /// The shape in object space.
+        shape: Shape,
+        /// Its placement, with the inverse.
+        placement: Placement,
+        /// Shader index.
+        shader: u32,
+    },
+    /// A boolean operation on two earlier nodes.
+    Csg {
+        /// Which operation.
+        op: CsgOp,
+        /// First operand.
+        a: u32,
+        /// Second operand.
+        b: u32,
+    },
+}
+
+/// Reusable buffers for span evaluation.
+#[derive(Clone, Debug, Default)]
+pub struct SpanScratch {
+    spans: Vec<Span>,
+    combined: Vec<Span>,
+}
+
+/// Where a ray first meets a solid object's surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolidHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Bound on the error of `t`.
+    pub t_error: f32,
+    /// The leaf shape actually hit (index into the arena).
+    pub leaf: u32,
+    /// Its face.
+    pub face: Face,
+    /// True if the composite's outward normal is the leaf's inward one (surface from `B` in
+    /// `A − B`).
+    pub flip: bool,
+}
+
+impl RayHit for SolidHit {
+    #[inline]
+    fn t(&self) -> f32 {
+        self.t
+    }
+    #[inline]
+    fn t_error(&self) -> f32 {
+        self.t_error
+    }
+}
+
+/// The surface at a solid hit, in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolidSurface {
+    /// The hit point.
+    pub point: Vec3,
+    /// Per-axis bound on its error.
+    pub point_error: Vec3,
+    /// Unit outward normal of the composite solid.
+    pub normal: Vec3,
+    /// Shader of the leaf hit.
+    pub shader: u32,
+}
+
+/// The scene's solids, ready for rendering.
+#[derive(Clone, Debug, Default)]
+pub struct Solids {
+    nodes: Vec<PreparedNode>,
+    /// Root node of each scene object.
+    objects: Vec<u32>,
+    /// World box of each object (`None`: unbounded).
+    bounds: Vec<Option<Aabb>>,
+}
+
+fn finite_box(b: &Aabb) -> bool {
+    b.min.is_finite() && b.max.is_finite()
+}
+
+impl Solids {
+    /// Prepares the arena; `nodes` and `objects` must have passed the scene's validation.
+    pub fn new(nodes: &[SolidNode], objects: &[u32]) -> Solids {
+        let prepared: Vec<PreparedNode> = nodes
+            .iter()
+            .map(|n| match *n {
+                SolidNode::Leaf {
+                    shape,
+                    transform,
+                    shader,
+                } => PreparedNode::Leaf {
+                    shape,
+                    placement: Placement::new(&transform),
+                    shader,
+                },
+                SolidNode::Csg { op, a, b } => PreparedNode::Csg { op, a, b },
+            })
+            .collect();
+        let mut boxes: Vec<Aabb> = Vec::with_capacity(prepared.len());
+        for n in &prepared {
+            let b = match *n {
+                PreparedNode::Leaf {
+                    shape, placement, ..
+                } => world_box(&shape, &placement),
+                PreparedNode::Csg { op, a, b } => {
+                    let (ba, bb) = (boxes[a as usize], boxes[b as usize]);
+                    match op {
+                        CsgOp::Union => Aabb {
+                            min: ba.min.min(bb.min),
+                            max: ba.max.max(bb.max),
+                        },
+                        CsgOp::Intersect => Aabb {
+                            min: ba.min.max(bb.min),
+                            max: ba.max.min(bb.max),
+                        },
+                        CsgOp::Subtract => ba,
+                    }
+                }
+            };
+            boxes.push(b);
+        }
+        let bounds = objects
+            .iter()
+            .map(|&r| {
+                let b = boxes[r as usize];
+                finite_box(&b).then_some(b)
+            })
+            .collect();
+        Solids {
+            nodes: prepared,
+            objects: objects.to_vec(),
+            bounds,
+        }
+    }
+
+    /// World boxes of the objects, `None` for unbounded ones (those stay out of the octree).
+    pub fn bounds(&self) -> &[Option<Aabb>] {
+        &self.bounds
+    }
+
+    /// Number of scene objects.
+    pub fn len(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// True if the scene has no solid objects.
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
+    /// The shader of leaf `leaf`.
+    pub fn leaf_shader(&self, leaf: u32) -> u32 {
+        match self.nodes[leaf as usize] {
+            PreparedNode::Leaf { shader, .. } => shader,
+            PreparedNode::Csg { .. } => 0,
+        }
+    }
+
+    /// The spans of `ray` inside node `node`, appended to `scratch.spans`; returns where they
+    /// start.
+    fn eval(&self, node: u32, ray: &Ray, scratch: &mut SpanScratch) -> usize {
+        let start = scratch.spans.len();
+        match self.nodes[node as usize] {
+            PreparedNode::Leaf {
+                shape, placement, ..
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                if let Some(s) = shape::span(&shape, o, d) {
+                    let end = |c: shape::Crossing| Boundary {
+                        t: c.t,
+                        t_error: c.t_error,
+                        leaf: node,
+                        face: c.face,
+                        flip: false,
+                    };
+                    scratch.spans.push(Span {
+                        enter: end(s.enter),
+                        exit: end(s.exit),
+                    });
+                }
+            }
+            PreparedNode::Csg { op, a, b } => {
+                let sa = self.eval(a, ray, scratch);
+                let sb = self.eval(b, ray, scratch);
+                let mut combined = core::mem::take(&mut scratch.combined);
+                combined.clear();
+                combine(
+                    op,
+                    &scratch.spans[sa..sb],
+                    &scratch.spans[sb..],
+                    &mut combined,
+                );
+                scratch.spans.truncate(start);
+                scratch.spans.extend_from_slice(&combined);
+                scratch.combined = combined;
+            }
+        }
+        start
+    }
+
+    /// The first surface of object `object` that `ray` crosses with `t` in front of its origin
+    /// (beyond the crossing's error bound) and below `t_max`.
+    pub fn first_hit(
+        &self,
+        object: u32,
+        ray: &Ray,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<SolidHit> {
+        scratch.spans.clear();
+        self.eval(self.objects[object as usize], ray, scratch);
+        let front = |b: &Boundary| b.t > b.t_error && b.t.is_finite();
+        let first = scratch
+            .spans
+            .iter()
+            .flat_map(|s| [s.enter, s.exit])
+            .find(front)?;
+        (first.t < t_max).then_some(SolidHit {
+            t: first.t,
+            t_error: first.t_error,
+            leaf: first.leaf,
+            face: first.face,
+            flip: first.flip,
+        })
+    }
+
+    /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
+    /// outward normal and shader.
+    pub fn surface(&self, ray: &Ray, hit: &SolidHit) -> SolidSurface {
+        let PreparedNode::Leaf {
+            shape,
+            placement,
+            shader,
+        } = self.nodes[hit.leaf as usize]
+        else {
+            // Hits always name leaves; a CSG node here would be a bug upstream.
+            return SolidSurface {
+                point: ray.at(hit.t),
+                point_error: Vec3::ZERO,
+                normal: Vec3::Z,
+                shader: 0,
+            };
+        };
+        let o = placement.point_to_object(ray.origin);
+        let d = placement.vector_to_object(ray.dir);
+        let (p, err) = shape::surface(&shape, o + d * hit.t, hit.face);
+        let (point, point_error) = placement.point_to_world(p, err);
+        let mut normal = placement.normal_to_world(shape::normal(&shape, p, hit.face));
+        if normal == Vec3::ZERO {
+            normal = -ray.dir.normalize();
+        }
+        if hit.flip {
+            normal = -normal;
+        }
+        SolidSurface {
+            point,
+            point_error,
+            normal,
+            shader,
+        }
+    }
+}
+
+/// The world box of a placed shape: its object box's corners mapped, grown by their rounding.
+fn world_box(shape: &Shape, placement: &Placement) -> Aabb {
+    let ob = shape::object_bounds(shape);
+    if !finite_box(&ob) {
+        return ob;
+    }
+    let mut b = Aabb::EMPTY;
+    for c in 0..8 {
+        let corner = Vec3::new(
+            if c & 1 == 0 { ob.min.x } else { ob.max.x },
+            if c & 2 == 0 { ob.min.y } else { ob.max.y },
+            if c & 4 == 0 { ob.min.z } else { ob.max.z },
+        );
+        let (p, err) = placement.point_to_world(corner, corner.abs() * gamma(2));
+        b.add_point(p - err);
+        b.add_point(p + err);
+    }
+    b
+}

@@ -1,0 +1,397 @@
+//! One shape against one ray, in the shape's object space.
+//!
+//! [`span`] returns the interval of `t` in which the ray is inside the (convex) shape, with the
+//! face crossed at each end. Each crossing carries a bound on the error of its `t`, so callers can
+//! tell a crossing at the ray's origin from one in front of it and merge crossings that coincide.
+//! [`surface`] puts a hit back on the exact surface (pbrt-v4's re-projection) with the error bound
+//! of the point, and [`normal`] gives the outward normal of a face.
+
+use super::Shape;
+use crate::aabb::Aabb;
+use crate::float::gamma;
+use glam::Vec3;
+
+/// Which face of a shape a crossing lies on (box: `2·axis + (1 if +side)`; cylinder: 0 side,
+/// 1 bottom cap, 2 top cap; sphere and plane: 0).
+pub type Face = u8;
+
+/// Where a ray crosses a shape's surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Crossing {
+    /// Ray parameter (may be infinite for the open end of an unbounded span).
+    pub t: f32,
+    /// Bound on the error of `t`.
+    pub t_error: f32,
+    /// The face crossed.
+    pub face: Face,
+}
+
+/// The part of a ray inside a convex shape: from `enter.t` to `exit.t`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShapeSpan {
+    /// Where the ray goes in (`t = −∞` if it starts inside an unbounded shape).
+    pub enter: Crossing,
+    /// Where it comes out (`t = +∞` if it never does).
+    pub exit: Crossing,
+}
+
+const OPEN: Crossing = Crossing {
+    t: f32::INFINITY,
+    t_error: 0.0,
+    face: 0,
+};
+
+/// Bound on the error of a crossing at `t` of the ray `o + t·d`: the rounding of the hit point
+/// (at the scale of the origin and the point) measured in units of `d`.
+#[inline]
+fn crossing_error(o: Vec3, d: Vec3, t: f32) -> f32 {
+    let scale = o.abs().max_element() + (o + d * t).abs().max_element();
+    gamma(16) * scale / d.abs().max_element()
+}
+
+/// The two roots of `a·t² + b·t + c = 0` in increasing order, computed without cancellation.
+#[inline]
+fn quadratic(a: f32, b: f32, disc: f32, c: f32) -> Option<(f32, f32)> {
+    if disc < 0.0 || a == 0.0 {
+        return None;
+    }
+    let root = libm::sqrtf(disc);
+    let q = if b < 0.0 {
+        -0.5 * (b - root)
+    } else {
+        -0.5 * (b + root)
+    };
+    if q == 0.0 {
+        return Some((0.0, 0.0));
+    }
+    let (t0, t1) = (q / a, c / q);
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+fn crossing(o: Vec3, d: Vec3, t: f32, face: Face) -> Crossing {
+    Crossing {
+        t,
+        t_error: crossing_error(o, d, t),
+        face,
+    }
+}
+
+/// The span of the ray `o + t·d` (object space, `d` not zero) inside `shape`, or `None` if the
+/// ray misses it. The span may lie partly or wholly behind the origin.
+pub fn span(shape: &Shape, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
+    match *shape {
+        Shape::Sphere { radius } => sphere(radius, o, d),
+        Shape::Plane { normal, d: offset } => plane(normal, offset, o, d),
+        Shape::Cuboid { size } => cuboid(size * 0.5, o, d),
+        Shape::Cylinder {
+            bottom_radius,
+            top_radius,
+            height,
+        } => cylinder(bottom_radius, top_radius, height, o, d),
+    }
+}
+
+fn sphere(r: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
+    let a = d.dot(d);
+    let b = 2.0 * o.dot(d);
+    let c = o.dot(o) - r * r;
+    // The discriminant from the distance of the centre to the line (pbrt-v4): no cancellation
+    // between b² and 4ac when the ray passes far from the centre.
+    let f = o - d * (o.dot(d) / a);
+    let disc = 4.0 * a * (r * r - f.dot(f));
+    let (t0, t1) = quadratic(a, b, disc, c)?;
+    Some(ShapeSpan {
+        enter: crossing(o, d, t0, 0),
+        exit: crossing(o, d, t1, 0),
+    })
+}
+
+fn plane(n: Vec3, offset: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
+    let unit = n.normalize();
+    let dist = unit.dot(o) - offset; // > 0: outside
+    let speed = unit.dot(d);
+    if speed == 0.0 {
+        return (dist <= 0.0).then_some(ShapeSpan {
+            enter: Crossing {
+                t: f32::NEG_INFINITY,
+                ..OPEN
+            },
+            exit: OPEN,
+        });
+    }
+    let t = -dist / speed;
+    let c = Crossing {
+        t,
+        t_error: gamma(8) * (unit.abs().dot(o.abs()) + offset.abs()) / speed.abs()
+            + crossing_error(o, d, t),
+        face: 0,
+    };
+    Some(if speed < 0.0 {
+        ShapeSpan {
+            enter: c,
+            exit: OPEN,
+        }
+    } else {
+        ShapeSpan {
+            enter: Crossing {
+                t: f32::NEG_INFINITY,
+                ..OPEN
+            },
+            exit: c,
+        }
+    })
+}
+
+fn cuboid(half: Vec3, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
+    let mut enter = Crossing {
+        t: f32::NEG_INFINITY,
+        ..OPEN
+    };
+    let mut exit = OPEN;
+    for a in 0..3 {
+        if d[a] == 0.0 {
+            if o[a] < -half[a] || o[a] > half[a] {
+                return None;
+            }
+            continue;
+        }
+        let inv = 1.0 / d[a];
+        let (mut near, mut far) = ((-half[a] - o[a]) * inv, (half[a] - o[a]) * inv);
+        let (mut near_face, mut far_face) = (2 * a as u8, 2 * a as u8 + 1);
+        if near > far {
+            core::mem::swap(&mut near, &mut far);
+            core::mem::swap(&mut near_face, &mut far_face);
+        }
+        // Ties go to the lower axis, so a ray through an edge names one face on every machine.
+        if near > enter.t {
+            enter = crossing(o, d, near, near_face);
+        }
+        if far < exit.t {
+            exit = crossing(o, d, far, far_face);
+        }
+    }
+    (enter.t <= exit.t + exit.t_error + enter.t_error).then_some(ShapeSpan { enter, exit })
+}
+
+fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
+    let half = 0.5 * h;
+    // Slab between the caps.
+    let (mut lo, mut hi, mut lo_face, mut hi_face) = if d.y == 0.0 {
+        if o.y < -half || o.y > half {
+            return None;
+        }
+        (f32::NEG_INFINITY, f32::INFINITY, 1u8, 2u8)
+    } else {
+        let (a, b) = ((-half - o.y) / d.y, (half - o.y) / d.y);
+        if a <= b {
+            (a, b, 1, 2)
+        } else {
+            (b, a, 2, 1)
+        }
+    };
+    // Side: x² + z² = (r0 + k·(y + h/2))², inside where the left side is smaller.
+    let k = (r1 - r0) / h;
+    let r_o = r0 + k * (o.y + half);
+    let a = d.x * d.x + d.z * d.z - k * k * d.y * d.y;
+    let b = 2.0 * (o.x * d.x + o.z * d.z - k * r_o * d.y);
+    let c = o.x * o.x + o.z * o.z - r_o * r_o;
+    let disc = b * b - 4.0 * a * c;
+    let (side_lo, side_hi) = if a == 0.0 {
+        // Along a cone's generator (or the axis of a cylinder): linear.
+        if b == 0.0 {
+            if c > 0.0 {
+                return None;
+            }
+            (f32::NEG_INFINITY, f32::INFINITY)
+        } else if b > 0.0 {
+            (f32::NEG_INFINITY, -c / b)
+        } else {
+            (-c / b, f32::INFINITY)
+        }
+    } else {
+        let (t0, t1) = quadratic(a, b, disc, c)?;
+        if a > 0.0 {
+            (t0, t1)
+        } else {
+            // Inside the double cone outside the roots: keep the piece that overlaps the slab
+            // most (the other nappe lies beyond the apex, outside the caps).
+            let below = (lo.max(f32::NEG_INFINITY), hi.min(t0));
+            let above = (lo.max(t1), hi.min(f32::INFINITY));
+            if below.1 - below.0 >= above.1 - above.0 {
+                (f32::NEG_INFINITY, t0)
+            } else {
+                (t1, f32::INFINITY)
+            }
+        }
+    };
+    if side_lo > lo {
+        lo = side_lo;
+        lo_face = 0;
+    }
+    if side_hi < hi {
+        hi = side_hi;
+        hi_face = 0;
+    }
+    let enter = crossing(o, d, lo, lo_face);
+    let exit = crossing(o, d, hi, hi_face);
+    (lo <= hi + enter.t_error + exit.t_error).then_some(ShapeSpan { enter, exit })
+}
+
+/// The outward normal (unit length) of `face` of `shape` at the object-space point `p`.
+pub fn normal(shape: &Shape, p: Vec3, face: Face) -> Vec3 {
+    match *shape {
+        Shape::Sphere { .. } => p.normalize_or_zero(),
+        Shape::Plane { normal, .. } => normal.normalize(),
+        Shape::Cuboid { .. } => {
+            let axis = (face / 2) as usize;
+            let mut n = Vec3::ZERO;
+            n[axis] = if face % 2 == 1 { 1.0 } else { -1.0 };
+            n
+        }
+        Shape::Cylinder {
+            bottom_radius,
+            top_radius,
+            height,
+        } => match face {
+            1 => Vec3::NEG_Y,
+            2 => Vec3::Y,
+            _ => {
+                let k = (top_radius - bottom_radius) / height;
+                let r = bottom_radius + k * (p.y + 0.5 * height);
+                Vec3::new(p.x, -k * r, p.z).normalize_or_zero()
+            }
+        },
+    }
+}
+
+/// The hit point `p` (object space, on `face`) moved onto the exact surface where that is cheap,
+/// and the per-axis bound on its remaining error.
+pub fn surface(shape: &Shape, p: Vec3, face: Face) -> (Vec3, Vec3) {
+    let rough = p.abs() * gamma(16);
+    match *shape {
+        Shape::Sphere { radius } => {
+            let len = p.length();
+            if len == 0.0 {
+                return (p, rough);
+            }
+            let q = p * (radius / len);
+            (q, q.abs() * gamma(5))
+        }
+        Shape::Plane { normal, d } => {
+            let unit = normal.normalize();
+            let q = p - unit * (unit.dot(p) - d);
+            (q, (q.abs() + Vec3::splat(d.abs())) * gamma(8))
+        }
+        Shape::Cuboid { size } => {
+            let axis = (face / 2) as usize;
+            let mut q = p;
+            q[axis] = if face % 2 == 1 { 0.5 } else { -0.5 } * size[axis];
+            let mut err = rough;
+            err[axis] = 0.0;
+            (q, err)
+        }
+        Shape::Cylinder { height, .. } => {
+            let mut q = p;
+            let mut err = rough;
+            if face != 0 {
+                q.y = if face == 2 { 0.5 } else { -0.5 } * height;
+                err.y = 0.0;
+            }
+            (q, err)
+        }
+    }
+}
+
+/// The object-space box around `shape` (infinite for a plane).
+pub fn object_bounds(shape: &Shape) -> Aabb {
+    match *shape {
+        Shape::Sphere { radius } => Aabb {
+            min: Vec3::splat(-radius),
+            max: Vec3::splat(radius),
+        },
+        Shape::Plane { .. } => Aabb {
+            min: Vec3::splat(f32::NEG_INFINITY),
+            max: Vec3::splat(f32::INFINITY),
+        },
+        Shape::Cuboid { size } => Aabb {
+            min: -size * 0.5,
+            max: size * 0.5,
+        },
+        Shape::Cylinder {
+            bottom_radius,
+            top_radius,
+            height,
+        } => {
+            let r = bottom_radius.max(top_radius);
+            Aabb {
+                min: Vec3::new(-r, -0.5 * height, -r),
+                max: Vec3::new(r, 0.5 * height, r),
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sphere_span_from_outside_and_inside() {
+        let s = Shape::Sphere { radius: 1.0 };
+        let sp = span(&s, Vec3::new(0.0, 0.0, -3.0), Vec3::Z).expect("hit");
+        assert_eq!((sp.enter.t, sp.exit.t), (2.0, 4.0));
+        let inside = span(&s, Vec3::ZERO, Vec3::Z).expect("hit");
+        assert_eq!((inside.enter.t, inside.exit.t), (-1.0, 1.0));
+        assert!(span(&s, Vec3::new(2.0, 0.0, -3.0), Vec3::Z).is_none());
+    }
+
+    #[test]
+    fn box_faces_and_normals() {
+        let s = Shape::Cuboid {
+            size: Vec3::new(2.0, 4.0, 6.0),
+        };
+        let sp = span(&s, Vec3::new(0.0, -10.0, 0.0), Vec3::Y).expect("hit");
+        assert_eq!((sp.enter.t, sp.exit.t), (8.0, 12.0));
+        assert_eq!(normal(&s, Vec3::ZERO, sp.enter.face), Vec3::NEG_Y);
+        assert_eq!(normal(&s, Vec3::ZERO, sp.exit.face), Vec3::Y);
+        assert!(span(&s, Vec3::new(1.5, -10.0, 0.0), Vec3::Y).is_none());
+    }
+
+    #[test]
+    fn plane_is_a_half_space() {
+        let s = Shape::Plane {
+            normal: Vec3::Y,
+            d: 1.0,
+        };
+        let down = span(&s, Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y).expect("hit");
+        assert_eq!(down.enter.t, 4.0);
+        assert_eq!(down.exit.t, f32::INFINITY);
+        let parallel_outside = span(&s, Vec3::new(0.0, 5.0, 0.0), Vec3::X);
+        assert!(parallel_outside.is_none());
+    }
+
+    #[test]
+    fn cylinder_side_and_caps() {
+        let s = Shape::Cylinder {
+            bottom_radius: 1.0,
+            top_radius: 1.0,
+            height: 2.0,
+        };
+        let across = span(&s, Vec3::new(-5.0, 0.0, 0.0), Vec3::X).expect("hit");
+        assert_eq!((across.enter.t, across.exit.t), (4.0, 6.0));
+        assert_eq!(across.enter.face, 0);
+        let down = span(&s, Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y).expect("hit");
+        assert_eq!((down.enter.t, down.exit.t), (4.0, 6.0));
+        assert_eq!((down.enter.face, down.exit.face), (2, 1));
+        // A cone with its apex at the top: a horizontal ray near the top is short.
+        let cone = Shape::Cylinder {
+            bottom_radius: 1.0,
+            top_radius: 0.0,
+            height: 2.0,
+        };
+        let near_top = span(&cone, Vec3::new(-5.0, 0.5, 0.0), Vec3::X).expect("hit");
+        assert!((near_top.exit.t - near_top.enter.t - 0.5).abs() < 1e-5);
+        let n = normal(&cone, Vec3::new(0.5, 0.0, 0.0), 0);
+        assert!(n.x > 0.0 && n.y > 0.0, "cone side leans up: {n:?}");
+    }
+}
