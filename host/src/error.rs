@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 /// Why a configuration or data file cannot be loaded.
 ///
-/// The `Display` form is the message a user sees: `path:line: what is wrong`, `path: cannot read:
+/// The `Display` form is the message a user sees: `path:line: what is wrong`, `path:line:column: what is wrong`, `path: cannot read:
 /// why`, or `path: what is wrong` for problems of the whole file.
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
@@ -16,6 +16,18 @@ pub enum LoadError {
         /// The 1-based line number.
         line: usize,
         /// What is wrong on that line.
+        message: String,
+    },
+    /// `path:line:column: message` (scene languages where the column matters)
+    #[error("{}:{line}:{column}: {message}", path.display())]
+    AtColumn {
+        /// The file.
+        path: PathBuf,
+        /// The 1-based line number.
+        line: usize,
+        /// The 1-based column, in characters.
+        column: usize,
+        /// What is wrong there, and what was expected.
         message: String,
     },
     /// `path: cannot read: io error`
