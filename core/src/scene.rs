@@ -124,6 +124,13 @@ pub struct RenderSettings {
     pub ambient_occlusion: u32,
     /// How far an occlusion ray looks; 0 picks a tenth of the scene's bounding-box diagonal.
     pub ao_distance: f32,
+    /// Adaptive multisampling: a pixel gets its `samples × samples` rays only if its centre
+    /// sample differs from a neighbour's (left, right, above, below) by more than this in some
+    /// channel (colours in `[0, 1]`); below 0 (the default) every pixel is supersampled.
+    pub aa_threshold: f32,
+    /// Leave out rays that cannot change a pixel (the default). Off, the tracer also sends them
+    /// and drops their answers: the image must not change by a bit.
+    pub skip_effects: bool,
 }
 
 /// The most samples per pixel side (`-m`).
@@ -146,6 +153,8 @@ impl Default for RenderSettings {
             samples: 1,
             ambient_occlusion: 0,
             ao_distance: 0.0,
+            aa_threshold: -1.0,
+            skip_effects: true,
         }
     }
 }
@@ -338,7 +347,8 @@ impl SceneDesc {
                 .all(|l| finite(l.position) && finite(l.color) && l.amount.is_finite())
             && finite(s.background)
             && s.min_reflection_weight.is_finite()
-            && s.ao_distance.is_finite();
+            && s.ao_distance.is_finite()
+            && s.aa_threshold.is_finite();
         if !numbers_ok {
             return Err(SceneError::NonFiniteNumber);
         }

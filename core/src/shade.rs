@@ -12,6 +12,11 @@
 //! change a pixel are not made: no lighting where the local share is 0, no shadow ray towards a
 //! light behind the surface, no occlusion rays for a shader without ambient colour.
 //!
+//! [`RenderSettings::skip_effects`](crate::scene::RenderSettings) off turns those shortcuts into
+//! rays whose answers are dropped (shadow rays to every light, mirror and refraction rays at every
+//! hit, occlusion rays everywhere, all samples of adaptive multisampling), which proves the
+//! shortcuts never change a pixel.
+//!
 //! Branches are kept on an explicit stack and taken in a fixed order, so the floating-point sum of
 //! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
 //! nested transparent objects), so leaving an inner object returns to the outer one's index.
@@ -245,8 +250,10 @@ fn local_color(
     counts: &mut RayCounts,
 ) -> Vec3 {
     let sh = &scene.shaders[s.shader];
+    let settings = &scene.settings;
+    let naive = !settings.skip_effects;
     let mut color = sh.ambient;
-    if scene.settings.ambient_occlusion > 0 && sh.ambient != Vec3::ZERO {
+    if settings.ambient_occlusion > 0 && (sh.ambient != Vec3::ZERO || naive) {
         color *= ambient_visibility(scene, s, seed, spans, counts);
     }
     for light in &scene.lights {
@@ -257,10 +264,21 @@ fn local_color(
         }
         let l = to_light / dist;
         let n_dot_l = s.shading.dot(l);
+        let casts = settings.shadows && light.casts_shadows;
+        if naive && !(casts && n_dot_l > 0.0) {
+            // Without skipping: the ray a naive tracer sends, whose answer cannot matter.
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
+            counts.shadow += 1;
+            let _ = scene.any_hit(
+                &Ray::new(origin, light.position - origin),
+                SHADOW_T_MAX,
+                spans,
+            );
+        }
         if n_dot_l <= 0.0 {
             continue;
         }
-        if scene.settings.shadows && light.casts_shadows {
+        if casts {
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
@@ -346,12 +364,32 @@ pub fn trace(
         }
         let refract_share = if refraction.is_some() { tr } else { 0.0 };
         let local_share = 1.0 - mirror_share - refract_share;
-        if local_share > 0.0 {
+        let naive = !settings.skip_effects;
+        if local_share > 0.0 || naive {
             let seed = mix(seed, bounce);
             let local = local_color(scene, &s, view, seed, spans, counts);
-            color += local * (local_share * p.weight);
+            if local_share > 0.0 {
+                color += local * (local_share * p.weight);
+            }
         }
         bounce += 1;
+        if naive {
+            // Without skipping: the mirror and refraction rays the shortcuts above left out,
+            // traced once and their answers dropped.
+            if mirror_share == 0.0 {
+                let dir = reflect(d, s.geometric);
+                let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+                counts.reflection += 1;
+                let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
+            }
+            if refraction.is_none() {
+                if let Some((dir, _)) = refracted(scene, &s, d, &p.media) {
+                    let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+                    counts.refraction += 1;
+                    let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
+                }
+            }
+        }
         if let Some((dir, media)) = refraction {
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
             scratch.pending.push(Pending {

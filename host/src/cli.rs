@@ -9,10 +9,10 @@ use crate::cluster::master::{run_master, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::executor::{start_workers, ClusterArgs};
-use crate::load::{load_config_scene, Overrides};
+use crate::load::{load_scene, Overrides};
 use crate::output::{check_output_path, write_image};
 use crate::progress::Progress;
-use crate::summary::RenderSummary;
+use crate::summary::{RenderStats, RenderSummary};
 use anyhow::anyhow;
 use clap::{Args, Parser, Subcommand};
 use std::num::NonZeroUsize;
@@ -20,7 +20,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use strahl_core::error::SceneError;
 use strahl_core::octree::OctreeParams;
-use strahl_core::scene::MAX_IMAGE_SIDE;
+use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 /// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
 #[derive(Debug, Parser)]
@@ -34,7 +34,7 @@ pub struct Cli {
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Render a scene (a configuration file and the data file it names) to an image.
+    /// Render a scene (.fart, .nff, or the seed's configuration file) to an image.
     Render(RenderArgs),
     /// Write a generated scene: the demo room's ROOM.txt or the large benchmark scene.
     Generate(crate::generate::GenerateArgs),
@@ -47,26 +47,71 @@ pub enum Command {
 /// The most worker threads `--workers` accepts.
 pub const MAX_WORKERS: u32 = 1024;
 
-/// Arguments of `strahl render`.
+/// Arguments of `strahl render`. As in FART, every option given beats the scene file; `-h` is
+/// the height, help is `--help`.
 #[derive(Debug, Args)]
+#[command(disable_help_flag = true)]
 pub struct RenderArgs {
-    /// The configuration file (the seed's raytracer.cfg); file names in it are relative to its
-    /// folder.
-    #[arg(value_name = "CONFIG")]
+    /// The scene: a .fart file, an .nff file, or the seed's configuration file (raytracer.cfg),
+    /// whose file names are relative to its folder.
+    #[arg(value_name = "SCENE")]
     pub config: PathBuf,
 
-    /// Write the image here instead of $IMAGE_NAME (relative to the current folder); the
-    /// extension chooses the format: .bmp or .png.
-    #[arg(short, long, value_name = "FILE")]
+    /// Write the image here (relative to the current folder) instead of $IMAGE_NAME or the
+    /// scene's name with .bmp; the extension chooses the format: .bmp or .png.
+    #[arg(
+        short,
+        long = "output-file",
+        visible_alias = "output",
+        value_name = "FILE"
+    )]
     pub output: Option<PathBuf>,
 
-    /// Image width in pixels, instead of $IMAGE_WIDTH.
-    #[arg(long, value_name = "N", value_parser = image_side())]
+    /// Image width in pixels.
+    #[arg(short, long, value_name = "N", value_parser = image_side())]
     pub width: Option<u32>,
 
-    /// Image height in pixels, instead of $IMAGE_HEIGHT.
-    #[arg(long, value_name = "N", value_parser = image_side())]
+    /// Image height in pixels.
+    #[arg(short = 'h', long, value_name = "N", value_parser = image_side())]
     pub height: Option<u32>,
+
+    /// Samples per pixel side: N×N stratified samples per pixel (1 to 16).
+    #[arg(short, long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_SAMPLES)))]
+    pub multisample: Option<u32>,
+
+    /// Vertical field of view in degrees (above 0, below 180).
+    #[arg(short = 'f', long, value_name = "DEG", value_parser = parse_fov)]
+    pub field_of_view: Option<f32>,
+
+    /// Cap on reflection and refraction bounces.
+    #[arg(short = 'd', long, value_name = "N")]
+    pub max_depth: Option<u32>,
+
+    /// Ambient-occlusion level, 0 (off) to 9: level N traces N×N occlusion rays per shaded point.
+    #[arg(short = 'a', long, value_name = "0-9", value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_AMBIENT_OCCLUSION)))]
+    pub ambient_occlusion: Option<u32>,
+
+    /// FART's preview: -w 400 -h 300 -m 1 -d 8 -a 0, each unless given explicitly.
+    #[arg(short, long)]
+    pub preview: bool,
+
+    /// Adaptive multisampling: supersample only pixels whose colour differs from a neighbour's
+    /// by more than T (0 to 1, per channel), as POV-Ray does [default: every pixel].
+    #[arg(long, value_name = "T", value_parser = parse_threshold)]
+    pub aa_threshold: Option<f32>,
+
+    /// Leave out rays that cannot change a pixel (on, the default). Off sends them anyway and
+    /// drops their answers: the image must stay the same, only the ray counts and time grow.
+    #[arg(long, value_name = "on|off", value_parser = parse_switch)]
+    pub skip_effects: Option<bool>,
+
+    /// Also write the render's statistics (times, rays by kind, workers) as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub stats_json: Option<PathBuf>,
+
+    /// Print help.
+    #[arg(long, action = clap::ArgAction::Help)]
+    pub help: Option<bool>,
 
     /// Shadows on or off (1 or 0 also accepted), instead of $SHADOWS.
     #[arg(long, value_name = "on|off", value_parser = parse_switch)]
@@ -98,6 +143,28 @@ pub struct RenderArgs {
 /// The parser of `--width` and `--height`: 1 to [`MAX_IMAGE_SIDE`].
 fn image_side() -> clap::builder::RangedI64ValueParser<u32> {
     clap::value_parser!(u32).range(1..=i64::from(MAX_IMAGE_SIDE))
+}
+
+/// Parses a field of view in degrees: a number above 0 and below 180.
+///
+/// # Errors
+/// A message naming the range.
+pub fn parse_fov(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(f) if f > 0.0 && f < 180.0 => Ok(f),
+        _ => Err("expected degrees above 0 and below 180".to_string()),
+    }
+}
+
+/// Parses an adaptive-multisampling threshold: a number from 0 to 1.
+///
+/// # Errors
+/// A message naming the range.
+pub fn parse_threshold(s: &str) -> Result<f32, String> {
+    match s.parse::<f32>() {
+        Ok(t) if (0.0..=1.0).contains(&t) => Ok(t),
+        _ => Err("expected a number from 0 to 1".to_string()),
+    }
 }
 
 /// The parser of `--workers`: 0 to [`MAX_WORKERS`].
@@ -140,6 +207,13 @@ impl RenderArgs {
             shadows: self.shadows,
             reflections: self.reflections,
             index_base: self.index_base,
+            samples: self.multisample,
+            field_of_view: self.field_of_view,
+            max_depth: self.max_depth,
+            ambient_occlusion: self.ambient_occlusion,
+            preview: self.preview,
+            aa_threshold: self.aa_threshold,
+            skip_effects: self.skip_effects,
         }
     }
 
@@ -175,7 +249,7 @@ impl RenderArgs {
 /// no image is written).
 pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
-    let loaded = load_config_scene(&args.config, &args.overrides())?;
+    let loaded = load_scene(&args.config, &args.overrides())?;
     let load = start.elapsed();
     // Fail before the long part if the image cannot be written.
     check_output_path(&loaded.output)?;
@@ -220,20 +294,27 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         &image.pixels,
     )?;
 
+    let summary = RenderSummary {
+        width: settings.width,
+        height: settings.height,
+        total: start.elapsed(),
+        load,
+        octree_build,
+        render,
+        triangles: scene.triangle_points.len(),
+        solids: scene.solids.len(),
+        octree: *scene.octree.stats(),
+        rays: image.rays,
+        workers: image.workers.len(),
+        output: loaded.output.clone(),
+    };
+    if let Some(path) = &args.stats_json {
+        let stats = RenderStats::new(&summary, settings.samples, &image.workers);
+        let json = serde_json::to_string_pretty(&stats)?;
+        std::fs::write(path, json + "\n")
+            .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))?;
+    }
     if !args.quiet {
-        let summary = RenderSummary {
-            width: settings.width,
-            height: settings.height,
-            total: start.elapsed(),
-            load,
-            octree_build,
-            render,
-            triangles: scene.triangle_points.len(),
-            octree: *scene.octree.stats(),
-            rays: image.rays,
-            workers: image.workers.len(),
-            output: loaded.output.clone(),
-        };
         eprintln!("{summary}");
         eprint!("{}", WorkerTable(&image.workers));
     }
@@ -248,6 +329,14 @@ mod tests {
     #[test]
     fn cli_is_consistent() {
         Cli::command().debug_assert();
+    }
+
+    #[test]
+    fn dash_h_is_height_and_help_stays_long() {
+        let help = Cli::try_parse_from(["strahl", "render", "--help"]);
+        assert!(matches!(help, Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelp));
+        let short = Cli::try_parse_from(["strahl", "render", "a.fart", "-h"]);
+        assert!(short.is_err(), "-h needs a height");
     }
 
     #[test]
@@ -279,6 +368,17 @@ mod tests {
             "3",
             "--index-base",
             "1",
+            "-h",
+            "9",
+            "-m",
+            "3",
+            "-f",
+            "60",
+            "-d",
+            "4",
+            "-a",
+            "2",
+            "-p",
             "--quiet",
         ])?;
         let a = match cli.command {
@@ -289,7 +389,17 @@ mod tests {
         let o = a.overrides();
         assert_eq!(a.config, PathBuf::from("a.cfg"));
         assert_eq!(o.output, Some(PathBuf::from("x.png")));
-        assert_eq!((o.width, o.height), (Some(7), None));
+        assert_eq!((o.width, o.height), (Some(7), Some(9)));
+        assert_eq!(
+            (
+                o.samples,
+                o.field_of_view,
+                o.max_depth,
+                o.ambient_occlusion,
+                o.preview
+            ),
+            (Some(3), Some(60.0), Some(4), Some(2), true)
+        );
         assert_eq!(
             (o.shadows, o.reflections, o.index_base),
             (Some(false), Some(true), Some(1))
@@ -304,6 +414,11 @@ mod tests {
             &["--index-base", "2"],
             &["--width", "0"],
             &["--shadows", "maybe"],
+            &["-m", "0"],
+            &["-m", "17"],
+            &["-a", "10"],
+            &["-f", "180"],
+            &["-f", "0"],
         ] {
             let mut argv = vec!["strahl", "render", "a.cfg"];
             argv.extend_from_slice(bad);

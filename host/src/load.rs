@@ -1,12 +1,18 @@
-//! Loading a whole scene: the configuration file, the command line's overrides and the data file
-//! it names, checked and assembled into a [`SceneDesc`].
+//! Loading a whole scene, whatever file it comes from, with the command line's overrides.
+//!
+//! [`load_scene`] picks the reader by the file's extension: `.fart` (FART's scene language,
+//! [`crate::fart`]), `.nff` (Eric Haines' Neutral File Format, [`crate::nff`]), and anything else
+//! is the seed's configuration file with the data file it names ([`load_config_scene`]). Then
+//! [`apply_overrides`] lets the command line beat the file, as FART's rule says.
 
 use crate::config::read_config;
 use crate::datafile::read_data;
 use crate::error::LoadError;
 use std::path::{Path, PathBuf};
 use strahl_core::camera::Camera;
-use strahl_core::scene::{RenderSettings, SceneDesc, MAX_IMAGE_SIDE};
+use strahl_core::scene::{
+    RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
+};
 
 /// Settings from the command line; each one given replaces the configuration file's.
 #[derive(Clone, Debug, Default)]
@@ -23,7 +29,25 @@ pub struct Overrides {
     pub reflections: Option<bool>,
     /// Index base of the data file's `_TR` records (0 or 1).
     pub index_base: Option<u32>,
+    /// Samples per pixel side (`-m`).
+    pub samples: Option<u32>,
+    /// Vertical field of view in degrees (`-f`).
+    pub field_of_view: Option<f32>,
+    /// Bounce depth cap for reflection and refraction (`-d`).
+    pub max_depth: Option<u32>,
+    /// Ambient-occlusion level 0 to 9 (`-a`).
+    pub ambient_occlusion: Option<u32>,
+    /// FART's preview (`-p`): 400×300, one sample, depth 8, no occlusion, each unless given
+    /// explicitly.
+    pub preview: bool,
+    /// Adaptive multisampling threshold (`--aa-threshold`).
+    pub aa_threshold: Option<f32>,
+    /// Effect skipping on or off (`--skip-effects`).
+    pub skip_effects: Option<bool>,
 }
+
+/// FART's preview settings (`-w400 -h300 -m1 -d8 -a0`).
+pub const PREVIEW: (u32, u32, u32, u32, u32) = (400, 300, 1, 8, 0);
 
 /// A scene loaded from a configuration file and its data file, ready for `Scene::build`.
 #[derive(Clone, Debug)]
@@ -112,6 +136,8 @@ pub fn load_config_scene(
             ..RenderSettings::default()
         },
     };
+    let mut desc = desc;
+    apply_overrides(&mut desc, overrides).map_err(config_error)?;
     desc.validate().map_err(|e| LoadError::File {
         path: data_path.clone(),
         message: e.to_string(),
@@ -122,4 +148,145 @@ pub fn load_config_scene(
         config_path: config_path.to_path_buf(),
         data_path,
     })
+}
+
+/// Which reader a scene file needs, by its extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    /// The seed's configuration file (any extension but the ones below).
+    SeedConfig,
+    /// FART's scene language, `.fart`.
+    Fart,
+    /// Neutral File Format, `.nff`.
+    Nff,
+}
+
+impl SceneFormat {
+    /// The format of `path`, by its extension (case-insensitive).
+    pub fn of(path: &Path) -> SceneFormat {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("fart") => SceneFormat::Fart,
+            Some("nff") => SceneFormat::Nff,
+            _ => SceneFormat::SeedConfig,
+        }
+    }
+}
+
+/// Loads the scene at `path` in the format its extension names, applies `overrides` and checks it.
+///
+/// A `.fart` or `.nff` scene's image goes to `overrides.output`, or else to the scene's file name
+/// with `.bmp` in the current folder.
+///
+/// # Errors
+/// A [`LoadError`] naming the file (and line, and for `.fart` the column) at fault.
+pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, LoadError> {
+    let mut desc = match SceneFormat::of(path) {
+        SceneFormat::SeedConfig => return load_config_scene(path, overrides),
+        SceneFormat::Fart | SceneFormat::Nff => {
+            return Err(LoadError::File {
+                path: path.to_path_buf(),
+                message: "WIP reader".into(),
+            })
+        }
+    };
+    let file_error = |message: String| LoadError::File {
+        path: path.to_path_buf(),
+        message,
+    };
+    apply_overrides(&mut desc, overrides).map_err(file_error)?;
+    desc.validate().map_err(|e| file_error(e.to_string()))?;
+    let output = match &overrides.output {
+        Some(o) => o.clone(),
+        None => {
+            let stem = path.file_stem().unwrap_or(path.as_os_str());
+            PathBuf::from(stem).with_extension("bmp")
+        }
+    };
+    Ok(LoadedScene {
+        desc,
+        output,
+        config_path: path.to_path_buf(),
+        data_path: path.to_path_buf(),
+    })
+}
+
+/// Applies the command line's settings to `desc`: each option given beats the scene file, and
+/// `preview` sets FART's preview values for the options not given.
+///
+/// The field of view is the vertical angle; a seed camera gets the zoom that gives it
+/// (`zoom = (height / width) / tan(fov / 2)`).
+///
+/// # Errors
+/// A message for a value out of range.
+pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String> {
+    let s = &mut desc.settings;
+    if o.preview {
+        let (w, h, m, d, a) = PREVIEW;
+        (
+            s.width,
+            s.height,
+            s.samples,
+            s.max_depth,
+            s.ambient_occlusion,
+        ) = (w, h, m, d, a);
+    }
+    if let Some(w) = o.width {
+        s.width = w;
+    }
+    if let Some(h) = o.height {
+        s.height = h;
+    }
+    if let Some(v) = o.shadows {
+        s.shadows = v;
+    }
+    if let Some(v) = o.reflections {
+        s.reflections = v;
+    }
+    if let Some(m) = o.samples {
+        if !(1..=MAX_SAMPLES).contains(&m) {
+            return Err(format!(
+                "the multisample given on the command line must be 1 to {MAX_SAMPLES}, found {m}"
+            ));
+        }
+        s.samples = m;
+    }
+    if let Some(d) = o.max_depth {
+        s.max_depth = d;
+    }
+    if let Some(a) = o.ambient_occlusion {
+        if a > MAX_AMBIENT_OCCLUSION {
+            return Err(format!(
+                "the ambient occlusion given on the command line must be 0 to {MAX_AMBIENT_OCCLUSION}, found {a}"
+            ));
+        }
+        s.ambient_occlusion = a;
+    }
+    if let Some(t) = o.aa_threshold {
+        if !(0.0..=1.0).contains(&t) {
+            return Err(format!(
+                "the multisampling threshold given on the command line must be 0 to 1, found {t}"
+            ));
+        }
+        s.aa_threshold = t;
+    }
+    if let Some(v) = o.skip_effects {
+        s.skip_effects = v;
+    }
+    if let Some(f) = o.field_of_view {
+        if !(f > 0.0 && f < 180.0) {
+            return Err(format!(
+                "the field of view given on the command line must be above 0 and below 180 degrees, found {f}"
+            ));
+        }
+        let aspect = s.height as f32 / s.width as f32;
+        match &mut desc.camera {
+            Camera::LookAt(c) => c.vfov_deg = f,
+            Camera::Seed(c) => c.zoom = aspect / libm::tanf(f.to_radians() * 0.5),
+        }
+    }
+    Ok(())
 }

@@ -24,6 +24,8 @@ pub struct RenderSummary {
     pub render: Duration,
     /// Triangles in the scene.
     pub triangles: usize,
+    /// Solid objects (analytic shapes and CSG) in the scene.
+    pub solids: usize,
     /// The octree's statistics.
     pub octree: OctreeStats,
     /// Rays traced.
@@ -56,8 +58,8 @@ impl fmt::Display for RenderSummary {
         write!(
             f,
             "rendered {}x{} in {:.2} s (load {:.2} s, octree {:.2} s, tracing {:.2} s): {} \
-             triangles, octree {} nodes / {} (depth {}), rays {} primary, {} shadow, {} \
-             reflection ({}), {} worker{} -> {}",
+             triangles, {} solids, octree {} nodes / {} (depth {}), rays {} primary, {} extra \
+             samples, {} shadow, {} reflection, {} refraction, {} occlusion ({}), {} worker{} -> {}",
             self.width,
             self.height,
             self.total.as_secs_f64(),
@@ -65,17 +67,120 @@ impl fmt::Display for RenderSummary {
             self.octree_build.as_secs_f64(),
             self.render.as_secs_f64(),
             self.triangles,
+            self.solids,
             o.nodes,
             format_bytes(o.bytes),
             o.depth,
             r.primary,
+            r.extra_samples,
             r.shadow,
             r.reflection,
+            r.refraction,
+            r.occlusion,
             format_ray_rate(r.total(), self.render.as_secs_f64()),
             self.workers,
             if self.workers == 1 { "" } else { "s" },
             self.output.display(),
         )
+    }
+}
+
+/// The machine-readable statistics of a render (`--stats-json FILE`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderStats {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Samples per pixel side.
+    pub samples: u32,
+    /// Seconds: total, load, octree build and tracing.
+    pub seconds: StatsSeconds,
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Solid objects in the scene.
+    pub solids: usize,
+    /// Rays by kind, and their sum.
+    pub rays: StatsRays,
+    /// One entry per worker.
+    pub workers: Vec<StatsWorker>,
+    /// The image file written.
+    pub output: String,
+}
+
+/// Wall times of a render in seconds.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct StatsSeconds {
+    /// From start to the written file.
+    pub total: f64,
+    /// Reading the scene files.
+    pub load: f64,
+    /// Building the octree.
+    pub octree: f64,
+    /// Tracing.
+    pub tracing: f64,
+}
+
+/// Rays by kind and their sum.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct StatsRays {
+    /// Counts by kind.
+    #[serde(flatten)]
+    pub kinds: RayCounts,
+    /// All rays.
+    pub total: u64,
+}
+
+/// One worker's share in [`RenderStats`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct StatsWorker {
+    /// Its name.
+    pub name: String,
+    /// Lines it delivered first.
+    pub lines: u32,
+    /// Rays in the lines it delivered, by kind.
+    pub rays: RayCounts,
+    /// Seconds it spent on lines.
+    pub busy_seconds: f64,
+    /// Why it was lost, if it was.
+    pub lost: Option<String>,
+}
+
+impl RenderStats {
+    /// The statistics of `summary`, with the workers' reports and the samples setting.
+    pub fn new(
+        summary: &RenderSummary,
+        samples: u32,
+        workers: &[crate::cluster::report::WorkerReport],
+    ) -> RenderStats {
+        RenderStats {
+            width: summary.width,
+            height: summary.height,
+            samples,
+            seconds: StatsSeconds {
+                total: summary.total.as_secs_f64(),
+                load: summary.load.as_secs_f64(),
+                octree: summary.octree_build.as_secs_f64(),
+                tracing: summary.render.as_secs_f64(),
+            },
+            triangles: summary.triangles,
+            solids: summary.solids,
+            rays: StatsRays {
+                kinds: summary.rays,
+                total: summary.rays.total(),
+            },
+            workers: workers
+                .iter()
+                .map(|w| StatsWorker {
+                    name: w.name.clone(),
+                    lines: w.lines,
+                    rays: w.rays,
+                    busy_seconds: w.busy.as_secs_f64(),
+                    lost: w.lost.clone(),
+                })
+                .collect(),
+            output: summary.output.display().to_string(),
+        }
     }
 }
 
@@ -93,6 +198,7 @@ mod tests {
             octree_build: Duration::from_millis(50),
             render: Duration::from_millis(1000),
             triangles: 12345,
+            solids: 3,
             octree: OctreeStats {
                 nodes: 4567,
                 bytes: 1_258_291,
@@ -103,7 +209,9 @@ mod tests {
                 primary: 307_200,
                 shadow: 123,
                 reflection: 45,
-                ..RayCounts::default()
+                refraction: 6,
+                occlusion: 7,
+                extra_samples: 8,
             },
             workers: 2,
             output: PathBuf::from("output.bmp"),
@@ -111,8 +219,9 @@ mod tests {
         assert_eq!(
             s.to_string(),
             "rendered 640x480 in 1.23 s (load 0.17 s, octree 0.05 s, tracing 1.00 s): 12345 \
-             triangles, octree 4567 nodes / 1.2 MiB (depth 9), rays 307200 primary, 123 shadow, \
-             45 reflection (307.4 k rays/s), 2 workers -> output.bmp"
+             triangles, 3 solids, octree 4567 nodes / 1.2 MiB (depth 9), rays 307200 primary, 8 \
+             extra samples, 123 shadow, 45 reflection, 6 refraction, 7 occlusion (307.4 k rays/s), \
+             2 workers -> output.bmp"
         );
         assert_eq!(format_bytes(100), "100 B");
         assert_eq!(format_bytes(2048), "2.0 KiB");

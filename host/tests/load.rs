@@ -114,6 +114,7 @@ fn overrides_beat_the_file() {
         shadows: Some(false),
         reflections: Some(true),
         index_base: Some(0),
+        ..Overrides::default()
     };
     let s = load_config_scene(&cfg, &over).expect("loads");
     // `-o` is used as given, relative to the current directory.
@@ -131,6 +132,72 @@ fn overrides_beat_the_file() {
     let msg = err.to_string();
     assert!(msg.starts_with(&format!("{}:6: ", data.display())), "{msg}");
     assert!(msg.contains("index 0 with index base 1"), "{msg}");
+}
+
+#[test]
+fn fart_options_apply_to_seed_scenes() {
+    let (_dir, cfg) = scene(
+        "$IMAGE_NAME a.bmp\n$INPUT_DATA ROOM.txt\n$IMAGE_WIDTH 100\n$IMAGE_HEIGHT 50\n\
+         $CAM_POS_ZOOM 3\n$INDEX_BASE 1\n",
+    );
+    let base = Overrides {
+        index_base: Some(0),
+        ..Overrides::default()
+    };
+    // -p: FART's preview values (-w400 -h300 -m1 -d8 -a0) replace the file's.
+    let preview = load_config_scene(
+        &cfg,
+        &Overrides {
+            preview: true,
+            ..base.clone()
+        },
+    )
+    .expect("loads");
+    let st = preview.desc.settings;
+    assert_eq!(
+        (
+            st.width,
+            st.height,
+            st.samples,
+            st.max_depth,
+            st.ambient_occlusion
+        ),
+        (400, 300, 1, 8, 0)
+    );
+    // Explicit options beat the preview; -f becomes the seed camera's zoom for that height.
+    let o = Overrides {
+        preview: true,
+        width: Some(200),
+        samples: Some(3),
+        max_depth: Some(2),
+        ambient_occlusion: Some(4),
+        field_of_view: Some(90.0),
+        ..base.clone()
+    };
+    let s = load_config_scene(&cfg, &o).expect("loads");
+    let st = s.desc.settings;
+    assert_eq!(
+        (
+            st.width,
+            st.height,
+            st.samples,
+            st.max_depth,
+            st.ambient_occlusion
+        ),
+        (200, 300, 3, 2, 4)
+    );
+    let strahl_core::camera::Camera::Seed(cam) = s.desc.camera else {
+        panic!("seed camera expected");
+    };
+    // 90° vertical over an image 1.5 times as tall as wide: zoom = 1.5 / tan(45°).
+    assert!((cam.zoom - 1.5).abs() < 1e-6, "{}", cam.zoom);
+    // Out of range on the command line: an error naming the file.
+    let bad = Overrides {
+        ambient_occlusion: Some(10),
+        ..base
+    };
+    let err = load_config_scene(&cfg, &bad).expect_err("ao 10");
+    assert!(err.to_string().contains("ambient occlusion"), "{err}");
 }
 
 #[test]
