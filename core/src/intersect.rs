@@ -71,6 +71,13 @@ impl Scene {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<PrimitiveHit> {
+        if self.solids.is_empty() {
+            // Triangles only (the seed's scenes): the octree's own triangle query.
+            return self
+                .octree
+                .closest_hit(&self.triangle_points, ray, t_max)
+                .map(|h| PrimitiveHit::Triangle(h.triangle, h.tri));
+        }
         let frame = RayFrame::new(ray);
         let mut best = self.octree.closest_hit_with(ray, t_max, |i, bound| {
             self.test_primitive(&frame, ray, i, bound, scratch)
@@ -91,6 +98,9 @@ impl Scene {
 
     /// True if `ray` hits any primitive with `0 < t < t_max` (shadow and occlusion rays).
     pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut SpanScratch) -> bool {
+        if self.solids.is_empty() {
+            return self.octree.any_hit(&self.triangle_points, ray, t_max);
+        }
         let frame = RayFrame::new(ray);
         self.octree.any_hit_with(ray, t_max, |i| {
             self.test_primitive(&frame, ray, i, t_max, scratch)

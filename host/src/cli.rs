@@ -272,6 +272,14 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             progress.println(&format!("warning: {msg}"));
         }
     };
+    if scene.degenerate_triangles > 0 {
+        warn(&format!(
+            "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
+            loaded.data_path.display(),
+            scene.degenerate_triangles,
+            scene.triangle_points.len()
+        ));
+    }
     let mut workers = start_workers(&args.cluster, args.worker_count(), &prepared, &warn)?;
     let render_start = Instant::now();
     let image = run_master(
