@@ -176,6 +176,8 @@ pub struct SceneDesc {
     pub solids: Vec<SolidNode>,
     /// The solids that are scene objects: indices of root nodes in [`SceneDesc::solids`].
     pub objects: Vec<u32>,
+    /// Object-space triangles of the closed meshes used as solids ([`SolidNode::Mesh`]).
+    pub solid_triangles: Vec<[Vec3; 3]>,
     /// The camera.
     pub camera: Camera,
     /// Image size and switches.
@@ -273,7 +275,7 @@ impl Scene {
             })
             .collect();
 
-        let solids = Solids::new(&desc.solids, &desc.objects);
+        let solids = Solids::new(&desc.solids, &desc.objects, &desc.solid_triangles);
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())
             .collect();
@@ -332,6 +334,7 @@ impl SceneDesc {
         }
         let numbers_ok = self.points.iter().all(|&p| finite(p))
             && self.normals.iter().all(|&n| finite(n))
+            && self.solid_triangles.iter().flatten().all(|&p| finite(p))
             && self.shaders.iter().all(|sh| {
                 finite(sh.ambient)
                     && finite(sh.diffuse)
@@ -407,6 +410,24 @@ impl SceneDesc {
                     shader,
                 } => {
                     if !shape.is_valid() || !transform.is_valid() {
+                        return Err(SceneError::BadSolid { solid });
+                    }
+                    if shader as usize >= self.shaders.len() {
+                        return Err(SceneError::SolidShaderOutOfRange { solid });
+                    }
+                    0
+                }
+                SolidNode::Mesh {
+                    first,
+                    count,
+                    transform,
+                    shader,
+                } => {
+                    let end = u64::from(first) + u64::from(count);
+                    if count == 0
+                        || end > self.solid_triangles.len() as u64
+                        || !transform.is_valid()
+                    {
                         return Err(SceneError::BadSolid { solid });
                     }
                     if shader as usize >= self.shaders.len() {

@@ -126,6 +126,7 @@ pub fn load_config_scene(
         normals: Vec::new(),
         solids: Vec::new(),
         objects: Vec::new(),
+        solid_triangles: Vec::new(),
         camera: Camera::Seed(cfg.camera),
         settings: RenderSettings {
             width,

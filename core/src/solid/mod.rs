@@ -7,11 +7,13 @@
 //! triangles.
 //!
 //! - [`shape`] intersects a ray with one shape in object space and returns the span of `t` inside it.
+//! - [`mesh`] does the same for closed triangle meshes, whose spans may be several.
 //! - [`spans`] combines span lists by union, intersection and difference (FART's rules: a hit
 //!   reports the sub-shape actually hit, and on `A − B` the surface from `B` has its normal turned).
 //! - [`prepared`] is the render-time form: placements inverted once, world bounds, and the queries
 //!   the octree and the shader use.
 
+pub mod mesh;
 pub mod prepared;
 pub mod shape;
 pub mod spans;
@@ -96,6 +98,19 @@ pub enum SolidNode {
     Leaf {
         /// The shape in object space.
         shape: Shape,
+        /// Object to world.
+        transform: Transform,
+        /// Index into `SceneDesc::shaders`.
+        shader: u32,
+    },
+    /// A closed triangle mesh placed in the world: triangles `first .. first + count` of
+    /// [`SceneDesc::solid_triangles`](crate::scene::SceneDesc), in object space, wound
+    /// counter-clockwise seen from outside (see [`mesh`]).
+    Mesh {
+        /// Index of the first triangle.
+        first: u32,
+        /// Number of triangles, at least 1.
+        count: u32,
         /// Object to world.
         transform: Transform,
         /// Index into `SceneDesc::shaders`.

@@ -5,6 +5,7 @@
 //! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
+use super::mesh;
 use super::shape::{self, Face};
 use super::spans::{combine, Boundary, Span};
 use super::{CsgOp, Shape, SolidNode};
@@ -28,6 +29,17 @@ pub enum PreparedNode {
         /// Shader index.
         shader: u32,
     },
+    /// A placed closed mesh.
+    Mesh {
+        /// Its triangles: `first .. first + count` of [`Solids`]' mesh triangles.
+        first: u32,
+        /// Number of triangles.
+        count: u32,
+        /// Its placement, with the inverse.
+        placement: Placement,
+        /// Shader index.
+        shader: u32,
+    },
     /// A boolean operation on two earlier nodes.
     Csg {
         /// Which operation.
@@ -44,6 +56,7 @@ pub enum PreparedNode {
 pub struct SpanScratch {
     spans: Vec<Span>,
     combined: Vec<Span>,
+    crossings: Vec<mesh::MeshCrossing>,
 }
 
 /// Where a ray first meets a solid object's surface.
@@ -94,6 +107,8 @@ pub struct Solids {
     objects: Vec<u32>,
     /// World box of each object (`None`: unbounded).
     bounds: Vec<Option<Aabb>>,
+    /// Object-space triangles of the mesh nodes.
+    mesh_triangles: Vec<[Vec3; 3]>,
 }
 
 fn finite_box(b: &Aabb) -> bool {
@@ -101,8 +116,9 @@ fn finite_box(b: &Aabb) -> bool {
 }
 
 impl Solids {
-    /// Prepares the arena; `nodes` and `objects` must have passed the scene's validation.
-    pub fn new(nodes: &[SolidNode], objects: &[u32]) -> Solids {
+    /// Prepares the arena; `nodes`, `objects` and the mesh nodes' `mesh_triangles` must have
+    /// passed the scene's validation.
+    pub fn new(nodes: &[SolidNode], objects: &[u32], mesh_triangles: &[[Vec3; 3]]) -> Solids {
         let prepared: Vec<PreparedNode> = nodes
             .iter()
             .map(|n| match *n {
@@ -115,6 +131,17 @@ impl Solids {
                     placement: Placement::new(&transform),
                     shader,
                 },
+                SolidNode::Mesh {
+                    first,
+                    count,
+                    transform,
+                    shader,
+                } => PreparedNode::Mesh {
+                    first,
+                    count,
+                    placement: Placement::new(&transform),
+                    shader,
+                },
                 SolidNode::Csg { op, a, b } => PreparedNode::Csg { op, a, b },
             })
             .collect();
@@ -123,7 +150,21 @@ impl Solids {
             let b = match *n {
                 PreparedNode::Leaf {
                     shape, placement, ..
-                } => world_box(&shape, &placement),
+                } => world_box(&shape::object_bounds(&shape), &placement),
+                PreparedNode::Mesh {
+                    first,
+                    count,
+                    placement,
+                    ..
+                } => {
+                    let mut ob = Aabb::EMPTY;
+                    for p in &mesh_triangles[first as usize..(first + count) as usize] {
+                        for &v in p {
+                            ob.add_point(v);
+                        }
+                    }
+                    world_box(&ob, &placement)
+                }
                 PreparedNode::Csg { op, a, b } => {
                     let (ba, bb) = (boxes[a as usize], boxes[b as usize]);
                     match op {
@@ -152,6 +193,7 @@ impl Solids {
             nodes: prepared,
             objects: objects.to_vec(),
             bounds,
+            mesh_triangles: mesh_triangles.to_vec(),
         }
     }
 
@@ -173,7 +215,7 @@ impl Solids {
     /// The shader of leaf `leaf`.
     pub fn leaf_shader(&self, leaf: u32) -> u32 {
         match self.nodes[leaf as usize] {
-            PreparedNode::Leaf { shader, .. } => shader,
+            PreparedNode::Leaf { shader, .. } | PreparedNode::Mesh { shader, .. } => shader,
             PreparedNode::Csg { .. } => 0,
         }
     }
@@ -201,6 +243,24 @@ impl Solids {
                         exit: end(s.exit),
                     });
                 }
+            }
+            PreparedNode::Mesh {
+                first,
+                count,
+                placement,
+                ..
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let triangles = &self.mesh_triangles[first as usize..(first + count) as usize];
+                mesh::spans(
+                    triangles,
+                    o,
+                    d,
+                    node,
+                    &mut scratch.crossings,
+                    &mut scratch.spans,
+                );
             }
             PreparedNode::Csg { op, a, b } => {
                 let sa = self.eval(a, ray, scratch);
@@ -250,25 +310,50 @@ impl Solids {
     /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
     /// outward normal and shader.
     pub fn surface(&self, ray: &Ray, hit: &SolidHit) -> SolidSurface {
-        let PreparedNode::Leaf {
-            shape,
-            placement,
-            shader,
-        } = self.nodes[hit.leaf as usize]
-        else {
-            // Hits always name leaves; a CSG node here would be a bug upstream.
-            return SolidSurface {
-                point: ray.at(hit.t),
-                point_error: Vec3::ZERO,
-                normal: Vec3::Z,
-                shader: 0,
-            };
+        let (placement, shader, p, err, object_normal) = match self.nodes[hit.leaf as usize] {
+            PreparedNode::Leaf {
+                shape,
+                placement,
+                shader,
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let (p, err) = shape::surface(&shape, o + d * hit.t, hit.face);
+                (
+                    placement,
+                    shader,
+                    p,
+                    err,
+                    shape::normal(&shape, p, hit.face),
+                )
+            }
+            PreparedNode::Mesh {
+                first,
+                placement,
+                shader,
+                ..
+            } => {
+                let tri = &self.mesh_triangles[(first + hit.face) as usize];
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let p = o + d * hit.t;
+                // The point's error: the crossing's t error along d, plus the sum's rounding.
+                let err = d.abs() * hit.t_error + p.abs() * crate::float::gamma(4);
+                let n = crate::triangle::unit_normal(tri).unwrap_or(Vec3::Z);
+                (placement, shader, p, err, n)
+            }
+            PreparedNode::Csg { .. } => {
+                // Hits always name leaves; a CSG node here would be a bug upstream.
+                return SolidSurface {
+                    point: ray.at(hit.t),
+                    point_error: Vec3::ZERO,
+                    normal: Vec3::Z,
+                    shader: 0,
+                };
+            }
         };
-        let o = placement.point_to_object(ray.origin);
-        let d = placement.vector_to_object(ray.dir);
-        let (p, err) = shape::surface(&shape, o + d * hit.t, hit.face);
         let (point, point_error) = placement.point_to_world(p, err);
-        let mut normal = placement.normal_to_world(shape::normal(&shape, p, hit.face));
+        let mut normal = placement.normal_to_world(object_normal);
         if normal == Vec3::ZERO {
             normal = -ray.dir.normalize();
         }
@@ -284,11 +369,10 @@ impl Solids {
     }
 }
 
-/// The world box of a placed shape: its object box's corners mapped, grown by their rounding.
-fn world_box(shape: &Shape, placement: &Placement) -> Aabb {
-    let ob = shape::object_bounds(shape);
-    if !finite_box(&ob) {
-        return ob;
+/// The world box of an object-space box `ob`: its corners mapped, grown by their rounding.
+fn world_box(ob: &Aabb, placement: &Placement) -> Aabb {
+    if !finite_box(ob) {
+        return *ob;
     }
     let mut b = Aabb::EMPTY;
     for c in 0..8 {

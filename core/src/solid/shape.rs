@@ -12,8 +12,8 @@ use crate::float::gamma;
 use glam::Vec3;
 
 /// Which face of a shape a crossing lies on (box: `2·axis + (1 if +side)`; cylinder: 0 side,
-/// 1 bottom cap, 2 top cap; sphere and plane: 0).
-pub type Face = u8;
+/// 1 bottom cap, 2 top cap; mesh: the triangle's index in the mesh; sphere and plane: 0).
+pub type Face = u32;
 
 /// Where a ray crosses a shape's surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,7 +157,7 @@ fn cuboid(half: Vec3, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         }
         let inv = 1.0 / d[a];
         let (mut near, mut far) = ((-half[a] - o[a]) * inv, (half[a] - o[a]) * inv);
-        let (mut near_face, mut far_face) = (2 * a as u8, 2 * a as u8 + 1);
+        let (mut near_face, mut far_face) = (2 * a as u32, 2 * a as u32 + 1);
         if near > far {
             core::mem::swap(&mut near, &mut far);
             core::mem::swap(&mut near_face, &mut far_face);
@@ -180,7 +180,7 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         if o.y < -half || o.y > half {
             return None;
         }
-        (f32::NEG_INFINITY, f32::INFINITY, 1u8, 2u8)
+        (f32::NEG_INFINITY, f32::INFINITY, 1u32, 2u32)
     } else {
         let (a, b) = ((-half - o.y) / d.y, (half - o.y) / d.y);
         if a <= b {

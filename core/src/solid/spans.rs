@@ -23,8 +23,8 @@ pub struct Boundary {
     pub t_error: f32,
     /// The leaf node (index into the solid arena) whose surface this is.
     pub leaf: u32,
-    /// Which face of the leaf's shape.
-    pub face: u8,
+    /// Which face of the leaf's shape (see [`super::shape::Face`]).
+    pub face: u32,
     /// True if the leaf's outward normal points into the composite here.
     pub flip: bool,
 }
