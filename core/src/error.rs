@@ -189,3 +189,9 @@ impl fmt::Display for ProtocolError {
         })
     }
 }
+
+impl core::error::Error for SceneError {}
+
+impl core::error::Error for RenderError {}
+
+impl core::error::Error for ProtocolError {}

@@ -36,12 +36,41 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene (.fart, .nff, or the seed's configuration file) to an image.
     Render(RenderArgs),
+    /// Convert a Wavefront OBJ mesh to the seed's data format, with a raytracer.cfg beside it.
+    Convert(ConvertArgs),
     /// Write a generated scene: the demo room's ROOM.txt or the large benchmark scene.
     Generate(crate::generate::GenerateArgs),
     /// Measure octree build time and size, and rays per second, on the large generated scene.
     Bench(crate::bench::BenchArgs),
     /// Serve masters as a render worker, over TCP (listening or dialling) or a serial port.
     Worker(crate::worker::WorkerArgs),
+}
+
+/// Arguments of `strahl convert`.
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// The OBJ file (its .mtl materials are used when present).
+    #[arg(value_name = "MODEL.obj")]
+    pub input: PathBuf,
+
+    /// The data file to write; a raytracer.cfg that frames the model is written beside it.
+    #[arg(short, long, value_name = "DATA.txt")]
+    pub output: PathBuf,
+
+    /// Keep the OBJ's coordinates instead of turning its Y-up into the seed's Z-up.
+    #[arg(long)]
+    pub z_up: bool,
+}
+
+/// `strahl convert`: the OBJ as the seed's data file and a configuration file for it.
+///
+/// # Errors
+/// A bad or unreadable OBJ or .mtl (naming the file and line) or a file that cannot be written.
+pub fn run_convert(args: &ConvertArgs) -> anyhow::Result<()> {
+    let options = crate::convert::ConvertOptions { y_up: !args.z_up };
+    let summary = crate::convert::convert_obj_with(&args.input, &args.output, &options)?;
+    eprint!("{summary}");
+    Ok(())
 }
 
 /// The most worker threads `--workers` accepts.
@@ -156,6 +185,31 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
     }
 }
 
+/// Checks that the folder of `--stats-json FILE` exists and `FILE` is not a folder.
+///
+/// # Errors
+/// A message naming the path.
+fn check_stats_path(path: &std::path::Path) -> anyhow::Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "{}: cannot write the statistics: folder {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    if path.is_dir() {
+        anyhow::bail!(
+            "{}: cannot write the statistics: it is a folder",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
 /// Parses an adaptive-multisampling threshold: a number from 0 to 1.
 ///
 /// # Errors
@@ -191,6 +245,7 @@ pub fn parse_switch(s: &str) -> Result<bool, String> {
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => run_render(&args),
+        Command::Convert(args) => run_convert(&args),
         Command::Generate(args) => crate::generate::run(&args),
         Command::Bench(args) => crate::bench::run_command(&args),
         Command::Worker(args) => crate::worker::run(&args),
@@ -251,8 +306,11 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let loaded = load_scene(&args.config, &args.overrides())?;
     let load = start.elapsed();
-    // Fail before the long part if the image cannot be written.
+    // Fail before the long part if the image or the statistics cannot be written.
     check_output_path(&loaded.output)?;
+    if let Some(stats) = &args.stats_json {
+        check_stats_path(stats)?;
+    }
 
     let build_start = Instant::now();
     let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {

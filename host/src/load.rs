@@ -187,12 +187,8 @@ impl SceneFormat {
 pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, LoadError> {
     let mut desc = match SceneFormat::of(path) {
         SceneFormat::SeedConfig => return load_config_scene(path, overrides),
-        SceneFormat::Fart | SceneFormat::Nff => {
-            return Err(LoadError::File {
-                path: path.to_path_buf(),
-                message: "WIP reader".into(),
-            })
-        }
+        SceneFormat::Fart => crate::fart::load_fart(path)?,
+        SceneFormat::Nff => crate::nff::load_nff(path)?,
     };
     let file_error = |message: String| LoadError::File {
         path: path.to_path_buf(),

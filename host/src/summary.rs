@@ -136,9 +136,12 @@ pub struct StatsRays {
 pub struct StatsWorker {
     /// Its name.
     pub name: String,
-    /// Lines it delivered first.
+    /// Lines it delivered first (their pixels are in the image).
     pub lines: u32,
-    /// Rays in the lines it delivered, by kind.
+    /// Lines it delivered after another worker had (copies that lost the race).
+    pub duplicates: u32,
+    /// Rays in every line it delivered, by kind, duplicates included: the sum over workers can
+    /// exceed the render's total by the duplicates' rays.
     pub rays: RayCounts,
     /// Seconds it spent on lines.
     pub busy_seconds: f64,
@@ -174,6 +177,7 @@ impl RenderStats {
                 .map(|w| StatsWorker {
                     name: w.name.clone(),
                     lines: w.lines,
+                    duplicates: w.duplicates,
                     rays: w.rays,
                     busy_seconds: w.busy.as_secs_f64(),
                     lost: w.lost.clone(),

@@ -40,6 +40,7 @@ pub fn spans(
     let at = |c: &MeshCrossing| Boundary {
         t: c.0,
         t_error: c.1,
+        merge_error: c.1,
         leaf,
         face: c.2,
         flip: false,
@@ -47,6 +48,7 @@ pub fn spans(
     let far = |t: f32| Boundary {
         t,
         t_error: 0.0,
+        merge_error: 0.0,
         leaf,
         face: 0,
         flip: false,

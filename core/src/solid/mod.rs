@@ -29,8 +29,8 @@ pub enum Shape {
         /// Radius, positive.
         radius: f32,
     },
-    /// The half-space `normal · p ≤ d`; its surface is the plane `normal · p = d` and the normal
-    /// points out of the solid side. Unbounded: it sits beside the octree, not in it.
+    /// The half-space `n̂ · p ≤ d` with `n̂` the unit vector along `normal`; its surface is the
+    /// plane `n̂ · p = d` and the normal points out of the solid side. Unbounded: it sits beside the octree, not in it.
     Plane {
         /// Outward normal, not zero (need not be unit length).
         normal: Vec3,

@@ -234,6 +234,7 @@ impl Solids {
                     let end = |c: shape::Crossing| Boundary {
                         t: c.t,
                         t_error: c.t_error,
+                        merge_error: c.merge_error,
                         leaf: node,
                         face: c.face,
                         flip: false,
@@ -318,7 +319,7 @@ impl Solids {
             } => {
                 let o = placement.point_to_object(ray.origin);
                 let d = placement.vector_to_object(ray.dir);
-                let (p, err) = shape::surface(&shape, o + d * hit.t, hit.face);
+                let (p, err) = shape::surface(&shape, o, d, hit.t, hit.t_error, hit.face);
                 (
                     placement,
                     shader,

@@ -20,8 +20,13 @@ pub type Face = u32;
 pub struct Crossing {
     /// Ray parameter (may be infinite for the open end of an unbounded span).
     pub t: f32,
-    /// Bound on the error of `t`.
+    /// Bound on the error of `t` as a distance along the ray: a crossing closer to the origin than
+    /// this is at the origin.
     pub t_error: f32,
+    /// Bound on the error of `t` from the error of the crossing point across the surface: the
+    /// point's error divided by the cosine of the angle of incidence (large for grazing rays).
+    /// Coinciding faces of CSG operands are merged within it.
+    pub merge_error: f32,
     /// The face crossed.
     pub face: Face,
 }
@@ -38,6 +43,7 @@ pub struct ShapeSpan {
 const OPEN: Crossing = Crossing {
     t: f32::INFINITY,
     t_error: 0.0,
+    merge_error: 0.0,
     face: 0,
 };
 
@@ -68,10 +74,20 @@ fn quadratic(a: f32, b: f32, disc: f32, c: f32) -> Option<(f32, f32)> {
     Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
 }
 
-fn crossing(o: Vec3, d: Vec3, t: f32, face: Face) -> Crossing {
+/// A crossing at `t` on `face`, where the ray's direction has component `along` on the surface's
+/// unit normal.
+fn crossing(o: Vec3, d: Vec3, t: f32, face: Face, along: f32) -> Crossing {
+    let t_error = crossing_error(o, d, t);
+    let scale = o.abs().max_element() + (o + d * t).abs().max_element();
+    let merge_error = (gamma(16) * scale / along.abs()).max(t_error);
     Crossing {
         t,
-        t_error: crossing_error(o, d, t),
+        t_error,
+        merge_error: if merge_error.is_nan() {
+            f32::INFINITY
+        } else {
+            merge_error
+        },
         face,
     }
 }
@@ -101,8 +117,8 @@ fn sphere(r: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     let disc = 4.0 * a * (r * r - f.dot(f));
     let (t0, t1) = quadratic(a, b, disc, c)?;
     Some(ShapeSpan {
-        enter: crossing(o, d, t0, 0),
-        exit: crossing(o, d, t1, 0),
+        enter: crossing(o, d, t0, 0, d.dot(o + d * t0) / r),
+        exit: crossing(o, d, t1, 0, d.dot(o + d * t1) / r),
     })
 }
 
@@ -120,10 +136,12 @@ fn plane(n: Vec3, offset: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         });
     }
     let t = -dist / speed;
+    let t_error =
+        gamma(8) * (unit.abs().dot(o.abs()) + offset.abs()) / speed.abs() + crossing_error(o, d, t);
     let c = Crossing {
         t,
-        t_error: gamma(8) * (unit.abs().dot(o.abs()) + offset.abs()) / speed.abs()
-            + crossing_error(o, d, t),
+        t_error,
+        merge_error: t_error,
         face: 0,
     };
     Some(if speed < 0.0 {
@@ -164,13 +182,27 @@ fn cuboid(half: Vec3, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         }
         // Ties go to the lower axis, so a ray through an edge names one face on every machine.
         if near > enter.t {
-            enter = crossing(o, d, near, near_face);
+            enter = crossing(o, d, near, near_face, d[a]);
         }
         if far < exit.t {
-            exit = crossing(o, d, far, far_face);
+            exit = crossing(o, d, far, far_face, d[a]);
         }
     }
-    (enter.t <= exit.t + exit.t_error + enter.t_error).then_some(ShapeSpan { enter, exit })
+    touching(enter, exit)
+}
+
+/// The span from `enter` to `exit`; a ray that only touches the shape, with `exit` before
+/// `enter` by less than their error bounds, gets a span of length zero at `enter` (so spans
+/// stay ordered), and one that passes farther away misses.
+fn touching(enter: Crossing, mut exit: Crossing) -> Option<ShapeSpan> {
+    if enter.t <= exit.t {
+        return Some(ShapeSpan { enter, exit });
+    }
+    if enter.t <= exit.t + exit.t_error + enter.t_error {
+        exit.t = enter.t;
+        return Some(ShapeSpan { enter, exit });
+    }
+    None
 }
 
 fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
@@ -232,9 +264,25 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         hi = side_hi;
         hi_face = 0;
     }
-    let enter = crossing(o, d, lo, lo_face);
-    let exit = crossing(o, d, hi, hi_face);
-    (lo <= hi + enter.t_error + exit.t_error).then_some(ShapeSpan { enter, exit })
+    let along = |t: f32, face: Face| {
+        if face == 0 {
+            let p = o + d * t;
+            d.dot(normal(
+                &Shape::Cylinder {
+                    bottom_radius: r0,
+                    top_radius: r1,
+                    height: h,
+                },
+                p,
+                0,
+            ))
+        } else {
+            d.y
+        }
+    };
+    let enter = crossing(o, d, lo, lo_face, along(lo, lo_face));
+    let exit = crossing(o, d, hi, hi_face, along(hi, hi_face));
+    touching(enter, exit)
 }
 
 /// The outward normal (unit length) of `face` of `shape` at the object-space point `p`.
@@ -264,10 +312,12 @@ pub fn normal(shape: &Shape, p: Vec3, face: Face) -> Vec3 {
     }
 }
 
-/// The hit point `p` (object space, on `face`) moved onto the exact surface where that is cheap,
-/// and the per-axis bound on its remaining error.
-pub fn surface(shape: &Shape, p: Vec3, face: Face) -> (Vec3, Vec3) {
-    let rough = p.abs() * gamma(16);
+/// The hit at `t` (error bound `t_error`) of the object-space ray `o + t·d` on `face`, moved onto
+/// the exact surface (up to rounding), and the per-axis bound on its remaining error.
+pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face) -> (Vec3, Vec3) {
+    let p = o + d * t;
+    // Before re-projection the point is off by the error of t along d, plus the sum's rounding.
+    let rough = d.abs() * t_error + (o.abs() + p.abs()) * gamma(3);
     match *shape {
         Shape::Sphere { radius } => {
             let len = p.length();
@@ -290,14 +340,29 @@ pub fn surface(shape: &Shape, p: Vec3, face: Face) -> (Vec3, Vec3) {
             err[axis] = 0.0;
             (q, err)
         }
-        Shape::Cylinder { height, .. } => {
+        Shape::Cylinder {
+            bottom_radius,
+            top_radius,
+            height,
+        } => {
             let mut q = p;
-            let mut err = rough;
             if face != 0 {
+                // On a cap: exactly on its plane.
                 q.y = if face == 2 { 0.5 } else { -0.5 } * height;
+                let mut err = rough;
                 err.y = 0.0;
+                return (q, err);
             }
-            (q, err)
+            // On the side: moved across the axis onto the radius at its height.
+            let k = (top_radius - bottom_radius) / height;
+            let r = (bottom_radius + k * (p.y + 0.5 * height)).max(0.0);
+            let across = libm::sqrtf(p.x * p.x + p.z * p.z);
+            if across == 0.0 {
+                return (p, rough);
+            }
+            q.x = p.x * (r / across);
+            q.z = p.z * (r / across);
+            (q, q.abs() * gamma(8))
         }
     }
 }

@@ -7,8 +7,8 @@
 //! in order and keeps the parts where the operation says "inside".
 //!
 //! Boundaries of the two operands that coincide within their error bounds (shared faces, shared
-//! edges) must not leave slivers: after the sweep, spans shorter than their ends' error bounds are
-//! dropped and gaps narrower than that are closed. So a union of two boxes that share a face has no
+//! edges) must not leave slivers: after the sweep, spans shorter than the error bounds of both
+//! ends are dropped and gaps narrower than that are closed. So a union of two boxes that share a face has no
 //! inner wall, and an intersection of two boxes that only touch is empty.
 
 use super::CsgOp;
@@ -19,8 +19,11 @@ use alloc::vec::Vec;
 pub struct Boundary {
     /// Ray parameter (±∞ for the open end of an unbounded span).
     pub t: f32,
-    /// Bound on the error of `t`.
+    /// Bound on the error of `t` along the ray (a boundary nearer than this is at the origin).
     pub t_error: f32,
+    /// Bound on the error of `t` across the surface (see
+    /// [`Crossing::merge_error`](super::shape::Crossing)): coinciding boundaries merge within it.
+    pub merge_error: f32,
     /// The leaf node (index into the solid arena) whose surface this is.
     pub leaf: u32,
     /// Which face of the leaf's shape (see [`super::shape::Face`]).
@@ -90,19 +93,21 @@ pub fn combine(op: CsgOp, a: &[Span], b: &[Span], out: &mut Vec<Span>) {
     tidy(out, start);
 }
 
-/// Drops spans of `out[start..]` shorter than their ends' error bounds and closes gaps narrower
-/// than that between neighbours.
+/// Drops spans of `out[start..]` shorter than both their ends' merge error bounds and closes gaps
+/// narrower than that between neighbours.
 fn tidy(out: &mut Vec<Span>, start: usize) {
     let mut w = start;
     for r in start..out.len() {
         let s = out[r];
-        let slack = s.enter.t_error + s.exit.t_error;
+        // Both ends must be uncertain enough to coincide: a span with one well-placed end is
+        // real even if its other end is a grazing crossing known only roughly.
+        let slack = 2.0 * s.enter.merge_error.min(s.exit.merge_error);
         if s.exit.t - s.enter.t <= slack {
             continue;
         }
         if w > start {
             let prev = &mut out[w - 1];
-            if s.enter.t - prev.exit.t <= s.enter.t_error + prev.exit.t_error {
+            if s.enter.t - prev.exit.t <= 2.0 * s.enter.merge_error.min(prev.exit.merge_error) {
                 prev.exit = s.exit;
                 continue;
             }
@@ -121,6 +126,7 @@ mod tests {
         Boundary {
             t,
             t_error: 1e-6,
+            merge_error: 1e-6,
             leaf,
             face: 0,
             flip: false,
