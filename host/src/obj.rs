@@ -23,7 +23,7 @@
 //! Every error names the file and, for a bad line, the line: `mesh.obj:12: `f`: vertex index 9
 //! out of range (8 vertices defined so far)`.
 //!
-//! Why not `tobj` (a dependency of this crate): tobj 4 makes up a normal (the previous corner's,
+//! Why not the `tobj` crate: tobj 4.0.5 makes up a normal (the previous corner's,
 //! or the file's first) for face corners without one, reports no line numbers nor which index is
 //! wrong, and panics on an `.mtl` colour with fewer than three values (`Kd 0.5`). The format is
 //! small enough to read here with exact messages.
