@@ -205,3 +205,28 @@ fn convert_turns_an_obj_into_a_renderable_seed_scene() -> TestResult {
     assert!(stderr(&out).contains("nope.obj"), "{}", stderr(&out));
     Ok(())
 }
+
+#[test]
+fn zero_area_triangles_are_reported_at_load() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(
+        dir.path().join("flat.fart"),
+        "scene {
+  camera { position <0, 0, 5> look_at <0, 0, 0> }
+  light { position <1, 1, 5> }
+  mesh {
+    vertices { <-1, -1, 0> <1, -1, 0> <0, 1, 0> <2, 2, 0> <3, 3, 0> <4, 4, 0> }
+    triangles { <0, 1, 2> <3, 4, 5> <0, 0, 1> }
+  }
+}
+",
+    )?;
+    let out = strahl(dir.path(), &["render", "flat.fart", "-w", "16", "-h", "12"])?;
+    assert!(out.status.success(), "{}", stderr(&out));
+    let err = stderr(&out);
+    assert!(
+        err.contains("warning: ") && err.contains("2 of 3 triangles have zero area"),
+        "{err}"
+    );
+    Ok(())
+}
