@@ -111,8 +111,8 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
         return None;
     }
 
-    // Largest |z| in world units, before scaling: the shear added at most this much to x and y
-    // (|sx|, |sy| ≤ 1 because z is the largest direction component).
+    // Largest |z| in world units, before scaling: the shear added at most |sx| (|sy|) times this
+    // to x (y); |sx|, |sy| ≤ 1 because z is the largest direction component.
     let max_z_world = p0z.abs().max(p1z.abs()).max(p2z.abs());
     p0z *= frame.sz;
     p1z *= frame.sz;
@@ -137,9 +137,11 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
     let max_xt = p0x.abs().max(p1x.abs()).max(p2x.abs());
     let max_yt = p0y.abs().max(p1y.abs()).max(p2y.abs());
     // pbrt-v4 writes `max_xt + max_zt` here, mixing world units with units of t; that is only
-    // right for directions of unit length. `max_z_world` keeps the bound right at any scale.
-    let delta_x = gamma(5) * (max_xt + max_z_world);
-    let delta_y = gamma(5) * (max_yt + max_z_world);
+    // right for directions of unit length. The shear added `sx·z` to x (and `sy·z` to y), so
+    // its rounding is bounded by `|sx|·max_z_world`: right at any scale, and tight for rays
+    // nearly parallel to the triangle, where a bound with `|sx| = 1` would reject true hits.
+    let delta_x = gamma(5) * (max_xt + frame.sx.abs() * max_z_world);
+    let delta_y = gamma(5) * (max_yt + frame.sy.abs() * max_z_world);
     let delta_e = 2.0 * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t =
