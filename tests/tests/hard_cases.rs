@@ -631,15 +631,15 @@ fn check_against_reference(
                     found.lit += 1;
                 }
             }
-            for ch in 0..3 {
+            for (ch, &wanted) in want.iter().enumerate() {
                 let g = i32::from(got.0[ch]);
-                found.worst = found.worst.max((g - want[ch]).abs());
+                found.worst = found.worst.max((g - wanted).abs());
                 assert!(
-                    (g - want[ch]).abs() <= tol,
+                    (g - wanted).abs() <= tol,
                     "{name}: pixel ({x}, {y}) channel {ch} is {g}, expected {} ({expected:?}): \
                      {} by more than the tolerance of {tol}/65535; colour {:?}",
-                    want[ch],
-                    if g < want[ch] {
+                    wanted,
+                    if g < wanted {
                         "darker (shadow acne?)"
                     } else {
                         "brighter (a light leak?)"
@@ -1442,8 +1442,8 @@ fn hit_key(h: Option<Hit>) -> Option<(u32, u32)> {
 fn cell_planes(b: Aabb, levels: u32) -> [Vec<f32>; 3] {
     let mut cells = vec![b];
     let mut planes: [Vec<f32>; 3] = [vec![], vec![], vec![]];
-    for a in 0..3 {
-        planes[a].extend([b.min[a], b.max[a]]);
+    for (a, plane) in planes.iter_mut().enumerate() {
+        plane.extend([b.min[a], b.max[a]]);
     }
     for _ in 0..levels {
         let mut next = Vec::new();
