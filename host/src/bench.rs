@@ -213,6 +213,9 @@ pub enum BenchCommand {
     /// Speedup over 1..N workers: in-process and TCP worker processes measured on this
     /// machine, a discrete-event model beyond it (the seed's 1-to-12-machines comparison).
     Scaling(crate::bench_scaling::ScalingArgs),
+    /// What accuracy costs in time: each quality knob swept alone against a converged
+    /// reference (RMSE, PSNR, SSIM, median time), written to docs/accuracy.md with a plot.
+    Accuracy(crate::bench_accuracy::AccuracyArgs),
 }
 
 /// Runs `strahl bench` and prints its report on stdout.
@@ -220,8 +223,10 @@ pub enum BenchCommand {
 /// # Errors
 /// If the generated scene cannot be built, or the chosen benchmark fails.
 pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
-    if let Some(BenchCommand::Scaling(a)) = &args.command {
-        return crate::bench_scaling::run(a);
+    match &args.command {
+        Some(BenchCommand::Scaling(a)) => return crate::bench_scaling::run(a),
+        Some(BenchCommand::Accuracy(a)) => return crate::bench_accuracy::run(a),
+        None => {}
     }
     let opts = BenchOptions {
         triangles: args.triangles,
