@@ -15,6 +15,7 @@
 //! - [`intersect`]: the scene's closest-hit and any-hit queries over triangles and solids.
 //! - [`camera`]: the seed's camera (position, tilt, turn, zoom) and FART's look-at camera.
 //! - [`sampling`], [`optics`]: deterministic sample patterns; reflection and Snell refraction.
+//! - [`effects`]: which effects can change a pixel of a scene, derived before rendering.
 //! - [`shade`]: Phong shading, shadows, reflection and refraction with the 10% cut-off, ambient
 //!   occlusion.
 //! - [`pixel`]: fixed-point pixels and the one place where colours are clamped and quantised.
@@ -29,6 +30,7 @@ extern crate alloc;
 
 pub mod aabb;
 pub mod camera;
+pub mod effects;
 pub mod error;
 pub mod float;
 pub mod intersect;

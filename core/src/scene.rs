@@ -7,6 +7,7 @@
 
 use crate::aabb::Aabb;
 use crate::camera::{Camera, CameraFrame};
+use crate::effects::Effects;
 use crate::error::SceneError;
 use crate::octree::{Octree, OctreeParams};
 use crate::solid::prepared::Solids;
@@ -214,6 +215,8 @@ pub struct Scene {
     pub bounds: Aabb,
     /// How far occlusion rays look (resolved from [`RenderSettings::ao_distance`]).
     pub ao_distance: f32,
+    /// The effects that can change a pixel, derived before rendering.
+    pub effects: Effects,
     /// The acceleration structure over triangles and bounded solids.
     pub octree: Octree,
 }
@@ -304,6 +307,15 @@ impl Scene {
             unbounded,
             bounds,
             ao_distance,
+            effects: Effects::derive(
+                &desc.shaders,
+                &desc
+                    .lights
+                    .iter()
+                    .map(|l| l.casts_shadows)
+                    .collect::<Vec<_>>(),
+                &desc.settings,
+            ),
             octree,
         })
     }

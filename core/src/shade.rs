@@ -288,7 +288,8 @@ fn local_color(
         }
         let r = s.shading * (2.0 * n_dot_l) - l;
         let r_dot_v = r.dot(view);
-        let spec = if r_dot_v > 0.0 {
+        // No highlight without a specular colour (the product would be zero anyway).
+        let spec = if r_dot_v > 0.0 && sh.specular != Vec3::ZERO {
             libm::powf(r_dot_v, sh.shininess)
         } else {
             0.0

@@ -375,13 +375,14 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
         output: loaded.output.clone(),
     };
     if let Some(path) = &args.stats_json {
-        let stats = RenderStats::new(&summary, settings.samples, &image.workers);
+        let stats = RenderStats::new(&summary, settings.samples, scene.effects, &image.workers);
         let json = serde_json::to_string_pretty(&stats)?;
         std::fs::write(path, json + "\n")
             .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))?;
     }
     if !args.quiet {
         eprintln!("{summary}");
+        eprintln!("effects: {}", scene.effects.describe());
         eprint!("{}", WorkerTable(&image.workers));
     }
     Ok(())

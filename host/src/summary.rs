@@ -100,6 +100,8 @@ pub struct RenderStats {
     pub triangles: usize,
     /// Solid objects in the scene.
     pub solids: usize,
+    /// The effects the scene calls for (derived before rendering).
+    pub effects: strahl_core::effects::Effects,
     /// Rays by kind, and their sum.
     pub rays: StatsRays,
     /// One entry per worker.
@@ -154,6 +156,7 @@ impl RenderStats {
     pub fn new(
         summary: &RenderSummary,
         samples: u32,
+        effects: strahl_core::effects::Effects,
         workers: &[crate::cluster::report::WorkerReport],
     ) -> RenderStats {
         RenderStats {
@@ -168,6 +171,7 @@ impl RenderStats {
             },
             triangles: summary.triangles,
             solids: summary.solids,
+            effects,
             rays: StatsRays {
                 kinds: summary.rays,
                 total: summary.rays.total(),

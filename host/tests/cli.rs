@@ -304,10 +304,15 @@ fn summary_names_size_rays_and_output() -> TestResult {
     assert_success(&out);
     assert!(out.stdout.is_empty());
     let err = stderr(&out);
-    // stderr is not a terminal here: no progress bar, just the summary line and the worker
-    // table (a header and one line per worker).
-    assert_eq!(err.lines().count(), 4, "{err}");
-    let table: Vec<&str> = err.lines().skip(1).collect();
+    // stderr is not a terminal here: no progress bar, just the summary line, the effects line
+    // and the worker table (a header and one line per worker).
+    assert_eq!(err.lines().count(), 5, "{err}");
+    assert_eq!(
+        err.lines().nth(1),
+        Some("effects: shadows 1/1 lights, highlights"),
+        "{err}"
+    );
+    let table: Vec<&str> = err.lines().skip(2).collect();
     assert!(table[0].starts_with("worker "), "{err}");
     assert!(
         table[1].starts_with("local-1 ") && table[1].ends_with(" ok"),

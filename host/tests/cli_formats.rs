@@ -95,6 +95,14 @@ fn command_line_beats_the_fart_file() -> TestResult {
         json["rays"]["refraction"].as_u64().unwrap_or(0) > 0,
         "{json}"
     );
+    // The effects derived before rendering: what this scene and these options call for.
+    let e = &json["effects"];
+    assert_eq!(e["refraction"], true, "{json}");
+    assert_eq!(e["reflection"], true, "{json}");
+    assert_eq!(e["multisampling"], 2, "{json}");
+    assert_eq!(e["ambient_occlusion"], 1, "{json}");
+    assert_eq!(e["shadow_lights"], 1, "{json}");
+    assert_eq!(e["lights"], 1, "{json}");
     // -p is FART's preview (400×300); an explicit -w still beats it.
     let out = strahl(
         dir.path(),
