@@ -132,8 +132,8 @@ pub fn load_config_scene(
             width,
             height,
             background: cfg.background,
-            shadows: overrides.shadows.unwrap_or(cfg.shadows),
-            reflections: overrides.reflections.unwrap_or(cfg.reflections),
+            shadows: cfg.shadows,
+            reflections: cfg.reflections,
             ..RenderSettings::default()
         },
     };

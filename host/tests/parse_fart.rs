@@ -770,13 +770,18 @@ fn mesh_in_csg_becomes_a_closed_mesh_solid_in_object_space() -> TestResult {
             ..
         })
     ));
-    // And it renders: the scene builds and a ray through the middle finds the dent.
+    // And it renders: the scene builds and the middle line sees the solid, not only the
+    // (black) background.
     let mut small = desc;
     small.settings.width = 8;
     small.settings.height = 6;
     let scene = Scene::build(&small, &OctreeParams::default())?;
     let mut line = vec![Pixel::default(); 8];
     render_line(&scene, 3, &mut line)?;
+    assert!(
+        line.iter().any(|p| *p != Pixel::default()),
+        "the middle line shows only background: {line:?}"
+    );
     Ok(())
 }
 

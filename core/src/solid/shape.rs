@@ -51,8 +51,14 @@ const OPEN: Crossing = Crossing {
 /// (at the scale of the origin and the point) measured in units of `d`.
 #[inline]
 fn crossing_error(o: Vec3, d: Vec3, t: f32) -> f32 {
-    let scale = o.abs().max_element() + (o + d * t).abs().max_element();
-    gamma(16) * scale / d.abs().max_element()
+    position_error(o, d, t) / d.abs().max_element()
+}
+
+/// Bound on the rounding of the crossing point `o + t·d`, at the scale of the origin and the
+/// point (world units of the shape's object space).
+#[inline]
+fn position_error(o: Vec3, d: Vec3, t: f32) -> f32 {
+    gamma(16) * (o.abs().max_element() + (o + d * t).abs().max_element())
 }
 
 /// The two roots of `a·t² + b·t + c = 0` in increasing order, computed without cancellation.
@@ -77,9 +83,9 @@ fn quadratic(a: f32, b: f32, disc: f32, c: f32) -> Option<(f32, f32)> {
 /// A crossing at `t` on `face`, where the ray's direction has component `along` on the surface's
 /// unit normal.
 fn crossing(o: Vec3, d: Vec3, t: f32, face: Face, along: f32) -> Crossing {
-    let t_error = crossing_error(o, d, t);
-    let scale = o.abs().max_element() + (o + d * t).abs().max_element();
-    let merge_error = (gamma(16) * scale / along.abs()).max(t_error);
+    let position = position_error(o, d, t);
+    let t_error = position / d.abs().max_element();
+    let merge_error = (position / along.abs()).max(t_error);
     Crossing {
         t,
         t_error,
