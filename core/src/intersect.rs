@@ -96,7 +96,8 @@ impl Scene {
         best.map(|(_, h)| h)
     }
 
-    /// True if `ray` hits any primitive with `0 < t < t_max` (shadow and occlusion rays).
+    /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
+    /// `t + t_error < t_max` (shadow and occlusion rays).
     pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut SpanScratch) -> bool {
         if self.solids.is_empty() {
             return self.octree.any_hit(&self.triangle_points, ray, t_max);
@@ -104,10 +105,11 @@ impl Scene {
         let frame = RayFrame::new(ray);
         self.octree.any_hit_with(ray, t_max, |i| {
             self.test_primitive(&frame, ray, i, t_max, scratch)
-                .is_some()
-        }) || self
-            .unbounded
-            .iter()
-            .any(|&j| self.solids.first_hit(j, ray, t_max, scratch).is_some())
+                .is_some_and(|h| h.t() + h.t_error() < t_max)
+        }) || self.unbounded.iter().any(|&j| {
+            self.solids
+                .first_hit(j, ray, t_max, scratch)
+                .is_some_and(|h| h.t + h.t_error < t_max)
+        })
     }
 }

@@ -71,8 +71,10 @@ impl core::ops::AddAssign for RayCounts {
     }
 }
 
-/// Shadow rays end just short of the light: `t = 1` is the light itself, known to a few roundings.
-const SHADOW_T_MAX: f32 = 1.0 - 4.0 * crate::float::MACHINE_EPSILON;
+/// Shadow rays run from the surface (`t = 0`) to the light (`t = 1`). `Scene::any_hit` counts a
+/// blocker only if it is provably before the light (`t + t_error < 1`), so a surface the light
+/// lies on does not shadow it.
+const SHADOW_T_MAX: f32 = 1.0;
 
 /// How many nested media a path remembers; deeper nesting forgets the outermost.
 const MAX_MEDIA: usize = 4;

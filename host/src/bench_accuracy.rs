@@ -1623,9 +1623,10 @@ fn report(
     );
     let _ = writeln!(
         md,
-        "- **Not measured: f32 against an f64 reference.** The core is f32-only (a `no_std` \
-         renderer on `glam::Vec3`); there is no f64 tracer to compare with, so no figure is \
-         given rather than an invented one."
+        "- **Not measured: f32 against an f64 reference.** The core renders in f32 (a `no_std` \
+         renderer on `glam::Vec3`; f64 only settles triangle hits whose f32 `t` bound cannot \
+         prove them in front of the ray); there is no f64 tracer to compare with, so no figure \
+         is given rather than an invented one."
     );
     let _ = writeln!(md, "\n## Scenes\n");
     let _ = writeln!(
@@ -1747,9 +1748,10 @@ fn report(
     let _ = writeln!(md, "### Floating point: f32 against f64\n");
     let _ = writeln!(
         md,
-        "Not supported. The core computes in f32 only (`no_std`, `glam::Vec3`, error-bounded \
-         f32 intersection tests); an f64 reference would need a second renderer, so this \
-         report gives no figure for it."
+        "Not supported. The core computes in f32 (`no_std`, `glam::Vec3`, error-bounded f32 \
+         intersection tests, with an f64 recheck only where a triangle hit's f32 bound is \
+         inconclusive); an f64 reference would need a second renderer, so this report gives \
+         no figure for it."
     );
     md
 }

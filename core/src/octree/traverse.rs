@@ -66,11 +66,14 @@ impl Octree {
         best
     }
 
-    /// True if `ray` hits any triangle with `0 < t < t_max` (shadow rays). Stops at the first hit.
+    /// True if `ray` hits any triangle provably before `t_max`: `0 < t` and `t + t_error < t_max`
+    /// (shadow rays: a surface the light lies on, within rounding, does not block it). Stops at
+    /// the first hit.
     pub fn any_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> bool {
         let frame = RayFrame::new(ray);
         self.any_hit_with(ray, t_max, |i| {
-            intersect(&frame, &triangles[i as usize], t_max).is_some()
+            intersect(&frame, &triangles[i as usize], t_max)
+                .is_some_and(|h| h.t + h.t_error < t_max)
         })
     }
 
