@@ -139,8 +139,10 @@ impl fmt::Display for SceneError {
 pub enum RenderError {
     /// The line number is not below the image height.
     LineOutOfRange,
-    /// The output buffer's length is not the image width.
+    /// The output buffer's (or mask's) length does not fit the image width.
     WrongBufferLength,
+    /// A second-pass request for a scene without adaptive multisampling.
+    NotAdaptive,
 }
 
 impl fmt::Display for RenderError {
@@ -148,7 +150,13 @@ impl fmt::Display for RenderError {
         match self {
             RenderError::LineOutOfRange => write!(f, "line number is not below the image height"),
             RenderError::WrongBufferLength => {
-                write!(f, "pixel buffer length is not the image width")
+                write!(
+                    f,
+                    "pixel buffer or mask length does not fit the image width"
+                )
+            }
+            RenderError::NotAdaptive => {
+                write!(f, "the scene does not use adaptive multisampling")
             }
         }
     }
@@ -172,6 +180,8 @@ pub enum ProtocolError {
     SceneTooLarge,
     /// A reassembled scene does not match its digest.
     DigestMismatch,
+    /// A `RefineLine` mask is empty or longer than [`crate::protocol::MAX_MASK_LEN`].
+    BadMask,
 }
 
 impl fmt::Display for ProtocolError {
@@ -186,6 +196,7 @@ impl fmt::Display for ProtocolError {
             }
             ProtocolError::SceneTooLarge => "the scene is empty or larger than the protocol allows",
             ProtocolError::DigestMismatch => "the scene's bytes do not match their digest",
+            ProtocolError::BadMask => "a refine request's mask is empty or too long",
         })
     }
 }

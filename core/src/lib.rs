@@ -29,6 +29,7 @@
 extern crate alloc;
 
 pub mod aabb;
+pub mod adaptive;
 pub mod camera;
 pub mod effects;
 pub mod error;

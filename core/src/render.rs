@@ -1,24 +1,27 @@
-//! [`render_line`]: one image line, the unit of work that every executor hands out.
+//! [`render_line`]: one image line, the unit of work that every executor hands out, and
+//! [`render_image`], every line of the image on this machine.
 //!
 //! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::sampling::pixel_sample`]),
-//! summed in sample order. Adaptive multisampling (`aa_threshold ≥ 0`, POV-Ray's method) first
-//! traces the centre of every pixel of the line and of the lines above and below, and supersamples
-//! only pixels whose centre colour differs from a neighbour's by more than the threshold. Every
-//! decision depends on the scene and the pixel alone, so any executor on any machine produces the
-//! same pixels.
+//! summed in sample order. Adaptive multisampling ([`crate::adaptive`]) takes two passes: with it,
+//! `render_line` traces only the pixel centres, and [`crate::adaptive::refine_line`] later
+//! supersamples the pixels that differ from a neighbour. Every decision depends on the scene and
+//! the pixel alone, so any executor on any machine produces the same pixels.
 
+use crate::adaptive::{edge_mask, is_adaptive, mask_len, merge_refined, refine_line};
 use crate::error::RenderError;
 use crate::pixel::Pixel;
 use crate::ray::Ray;
 use crate::sampling::{mix, pixel_sample, pixel_seed};
 use crate::scene::Scene;
 use crate::shade::{trace, RayCounts, TraceScratch};
-use alloc::vec::Vec;
+use alloc::vec;
 use glam::Vec3;
 
 /// Renders image line `y` (0 is the top) of `scene` into `out`, one [`Pixel`] per column, and
-/// returns the rays it traced. The result depends only on the scene and `y`.
+/// returns the rays it traced. The result depends only on the scene and `y`. With adaptive
+/// multisampling on ([`crate::adaptive::is_adaptive`]) this is the first pass: the clamped colour
+/// of each pixel's centre ray.
 ///
 /// # Errors
 /// [`RenderError::LineOutOfRange`] if `y` is not below the image height,
@@ -34,8 +37,12 @@ pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts
     let mut counts = RayCounts::default();
     let mut scratch = TraceScratch::default();
     let m = s.samples.max(1);
-    if m > 1 && s.aa_threshold >= 0.0 {
-        adaptive_line(scene, y, out, &mut scratch, &mut counts);
+    if is_adaptive(s) {
+        for (x, px) in out.iter_mut().enumerate() {
+            let color = centre(scene, x as u32, y, &mut scratch, &mut counts);
+            counts.primary += 1;
+            *px = Pixel::from_color(color);
+        }
         return Ok(counts);
     }
     for (x, px) in out.iter_mut().enumerate() {
@@ -49,7 +56,7 @@ pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts
 
 /// The mean of the `m × m` samples of pixel `(x, y)` (just the centre sample for `m = 1`). Counts
 /// nothing but the rays the samples spawn.
-fn supersample(
+pub(crate) fn supersample(
     scene: &Scene,
     x: u32,
     y: u32,
@@ -87,47 +94,40 @@ fn centre(
     trace(scene, ray, mix(seed, m * m), scratch, counts)
 }
 
-/// Adaptive multisampling of line `y` (see the module documentation).
-fn adaptive_line(
-    scene: &Scene,
-    y: u32,
-    out: &mut [Pixel],
-    scratch: &mut TraceScratch,
-    counts: &mut RayCounts,
-) {
+/// Renders the whole image on this machine into `pixels` (row-major, top line first), both
+/// passes of adaptive multisampling included, exactly as the master assembles it from workers;
+/// returns the rays traced.
+///
+/// # Errors
+/// [`RenderError::WrongBufferLength`] if `pixels` is not `width × height` long.
+pub fn render_image(scene: &Scene, pixels: &mut [Pixel]) -> Result<RayCounts, RenderError> {
     let s = &scene.settings;
-    let w = s.width;
-    let mut line = |yy: u32, counts: &mut RayCounts| -> Vec<Vec3> {
-        (0..w)
-            .map(|x| centre(scene, x, yy, scratch, counts).clamp(Vec3::ZERO, Vec3::ONE))
-            .collect()
-    };
-    let here = line(y, counts);
-    let above = (y > 0).then(|| line(y - 1, counts));
-    let below = (y + 1 < s.height).then(|| line(y + 1, counts));
-    // The neighbour lines' centre rays are extra samples; what they spawn counts by kind.
-    let neighbour_lines = u64::from(above.is_some()) + u64::from(below.is_some());
-    counts.extra_samples += neighbour_lines * u64::from(w);
-    let m = s.samples.max(1);
-    let differs = |a: Vec3, b: Vec3| (a - b).abs().max_element() > s.aa_threshold;
-    for (x, px) in out.iter_mut().enumerate() {
-        let c = here[x];
-        let edge = (x > 0 && differs(c, here[x - 1]))
-            || (x + 1 < here.len() && differs(c, here[x + 1]))
-            || above.as_ref().is_some_and(|a| differs(c, a[x]))
-            || below.as_ref().is_some_and(|b| differs(c, b[x]));
-        counts.primary += 1;
-        let color = if edge || !s.skip_effects {
-            counts.extra_samples += u64::from(m * m);
-            let fine = supersample(scene, x as u32, y, scratch, counts);
-            if edge {
-                fine
-            } else {
-                c
-            }
-        } else {
-            c
-        };
-        *px = Pixel::from_color(color);
+    let w = s.width as usize;
+    if pixels.len() != w * s.height as usize {
+        return Err(RenderError::WrongBufferLength);
     }
+    let mut counts = RayCounts::default();
+    for (y, line) in pixels.chunks_mut(w).enumerate() {
+        counts += render_line(scene, y as u32, line)?;
+    }
+    if !is_adaptive(s) {
+        return Ok(counts);
+    }
+    let centres = pixels.to_vec();
+    let mut edges = vec![0u8; mask_len(s.width)];
+    let all = vec![0xffu8; mask_len(s.width)];
+    let mut refined = vec![Pixel::default(); w];
+    for (y, line) in pixels.chunks_mut(w).enumerate() {
+        let row = |yy: usize| &centres[yy * w..(yy + 1) * w];
+        let above = (y > 0).then(|| row(y - 1));
+        let below = (y + 1 < s.height as usize).then(|| row(y + 1));
+        let flagged = edge_mask(s.aa_threshold, above, row(y), below, &mut edges);
+        // Without skipping, every pixel is supersampled and only the flagged ones are kept.
+        let request = if s.skip_effects { &edges } else { &all };
+        if flagged > 0 || !s.skip_effects {
+            counts += refine_line(scene, y as u32, request, &mut refined)?;
+            merge_refined(&edges, &refined, line);
+        }
+    }
+    Ok(counts)
 }

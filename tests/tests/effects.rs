@@ -2,17 +2,18 @@
 //! `skip_effects` switch that proves the shortcuts never change a pixel, and adaptive
 //! multisampling (`aa_threshold`).
 //!
-//! Every scene is built by hand and rendered line by line with `render_line`; the ray counts are
-//! the sums of what the lines return. Unless a test says otherwise the camera is the seed's
+//! Every scene is built by hand and rendered with `render_image` (every line's `render_line`,
+//! then adaptive multisampling's second pass); the ray counts are what it returns. Unless a test says otherwise the camera is the seed's
 //! default (at the origin, looking along +Y, 90° horizontal field of view), so the centre ray of
 //! pixel `(x, y)` of a `w × h` image has the direction `(u, 1, v)` with `u = (2x + 1)/w − 1` and
 //! `v = (h − 2y − 1)/w`.
 
 use glam::Vec3;
+use strahl_core::adaptive::{edge_mask, mask_len, merge_refined, refine_line};
 use strahl_core::camera::{Camera, LookAtCamera};
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
-use strahl_core::render::render_line;
+use strahl_core::render::{render_image, render_line};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
 use strahl_core::shade::RayCounts;
 use strahl_core::solid::{CsgOp, Shape, SolidNode};
@@ -126,25 +127,12 @@ fn centre_dir(x: u32, y: u32, w: u32, h: u32) -> Vec3 {
 // Rendering and comparing
 // ---------------------------------------------------------------------------------------------
 
-/// Renders every line in order; returns the image and the summed ray counts.
+/// Renders the image; returns it and the ray counts.
 fn render(desc: &SceneDesc) -> (Vec<Pixel>, RayCounts) {
-    let (image, lines) = render_lines(desc);
-    let mut total = RayCounts::default();
-    for c in lines {
-        total += c;
-    }
-    (image, total)
-}
-
-/// Renders every line in order; returns the image and each line's ray counts.
-fn render_lines(desc: &SceneDesc) -> (Vec<Pixel>, Vec<RayCounts>) {
     let scene = Scene::build(desc, &OctreeParams::default()).expect("valid scene");
     let w = desc.settings.width as usize;
     let mut image = vec![Pixel::default(); w * desc.settings.height as usize];
-    let mut counts = Vec::new();
-    for (y, line) in image.chunks_mut(w).enumerate() {
-        counts.push(render_line(&scene, y as u32, line).expect("line renders"));
-    }
+    let counts = render_image(&scene, &mut image).expect("image renders");
     (image, counts)
 }
 
@@ -709,6 +697,11 @@ const AH: u32 = 24;
 /// A white box (ambient 1, no diffuse or specular) on a black background: its front face at
 /// `y = 10` covers `x ∈ [−3, 3]`, `z ∈ [−2, 2]`, whose edges lie between pixel centres.
 fn white_box(samples: u32, aa_threshold: f32) -> SceneDesc {
+    white_cuboid(Vec3::new(6.0, 1.0, 4.0), samples, aa_threshold)
+}
+
+/// [`white_box`] with a box of `size`.
+fn white_cuboid(size: Vec3, samples: u32, aa_threshold: f32) -> SceneDesc {
     let white = Shader {
         ambient: Vec3::ONE,
         ..shader(0.0, 0.0, 0.0)
@@ -716,9 +709,7 @@ fn white_box(samples: u32, aa_threshold: f32) -> SceneDesc {
     let mut desc = empty(vec![white], vec![light(Vec3::new(0.0, -5.0, 0.0), false)]);
     solid(
         &mut desc,
-        Shape::Cuboid {
-            size: Vec3::new(6.0, 1.0, 4.0),
-        },
+        Shape::Cuboid { size },
         Transform::translate(Vec3::new(0.0, 10.5, 0.0)),
         0,
     );
@@ -757,10 +748,10 @@ fn differs_from_a_neighbour(img: &[Pixel], w: u32, h: u32) -> Vec<bool> {
         .collect()
 }
 
-/// The extra samples adaptive multisampling counts for an image: the neighbour lines' centre
-/// rays (`w` per neighbour line of every line) plus `m²` per supersampled pixel.
-fn adaptive_extra(w: u32, h: u32, m: u32, supersampled: u64) -> u64 {
-    u64::from(2 * h - 2) * u64::from(w) + u64::from(m * m) * supersampled
+/// The extra samples adaptive multisampling counts for an image: `m²` per supersampled pixel
+/// and nothing else (the centres are the primary rays).
+fn adaptive_extra(m: u32, supersampled: u64) -> u64 {
+    u64::from(m * m) * supersampled
 }
 
 #[test]
@@ -791,8 +782,8 @@ fn adaptive_multisampling_supersamples_only_the_edge() {
     );
     assert_eq!(
         ca.extra_samples,
-        adaptive_extra(AW, AH, m, n_edge),
-        "neighbour lines' centres plus m² per edge pixel"
+        adaptive_extra(m, n_edge),
+        "m² per edge pixel"
     );
     for i in 0..adaptive.len() {
         let (x, y) = (i as u32 % AW, i as u32 / AW);
@@ -822,7 +813,7 @@ fn adaptive_multisampling_supersamples_only_the_edge() {
         &["extra_samples", "shadow", "reflection", "refraction"],
     );
     assert_eq!(c_on, ca);
-    assert_eq!(c_off.extra_samples, adaptive_extra(AW, AH, m, pixels));
+    assert_eq!(c_off.extra_samples, adaptive_extra(m, pixels));
 }
 
 #[test]
@@ -833,17 +824,13 @@ fn aa_threshold_zero_supersamples_every_pixel_with_a_differing_neighbour() {
     let (_, c0) = render(&white_box(m, 0.0));
     let edge = differs_from_a_neighbour(&single, AW, AH);
     let n_edge = edge.iter().filter(|&&e| e).count() as u64;
-    assert_eq!(
-        c0.extra_samples,
-        adaptive_extra(AW, AH, m, n_edge),
-        "{c0:?}"
-    );
+    assert_eq!(c0.extra_samples, adaptive_extra(m, n_edge), "{c0:?}");
 
     // Gradient: every pixel whose single-sample value differs from a neighbour's is supersampled
-    // (its pixel equals the full-multisampling one), line by line at least m² extra each.
+    // (its pixel equals the full-multisampling one), m² extra rays each and no others.
     let (single, _) = render(&gradient(1, -1.0));
     let (full, _) = render(&gradient(m, -1.0));
-    let (adaptive, lines) = render_lines(&gradient(m, 0.0));
+    let (adaptive, c) = render(&gradient(m, 0.0));
     let edge = differs_from_a_neighbour(&single, AW, AH);
     let n_edge = edge.iter().filter(|&&e| e).count();
     assert!(
@@ -851,54 +838,89 @@ fn aa_threshold_zero_supersamples_every_pixel_with_a_differing_neighbour() {
         "a gradient: {n_edge} edge pixels"
     );
     for (i, &e) in edge.iter().enumerate() {
-        if e {
-            assert_eq!(
-                adaptive[i],
-                full[i],
-                "pixel ({}, {}) differs from a neighbour and must be supersampled",
-                i as u32 % AW,
-                i as u32 / AW
-            );
-        }
-    }
-    for (y, c) in lines.iter().enumerate() {
-        let neighbours = u64::from(y > 0) + u64::from(y + 1 < AH as usize);
-        let row = &edge[y * AW as usize..(y + 1) * AW as usize];
-        let n_row = row.iter().filter(|&&e| e).count() as u64;
-        assert!(
-            c.extra_samples >= neighbours * u64::from(AW) + u64::from(m * m) * n_row,
-            "line {y}: {} extra samples for {n_row} edge pixels",
-            c.extra_samples
+        let expected = if e { full[i] } else { single[i] };
+        assert_eq!(
+            adaptive[i],
+            expected,
+            "pixel ({}, {}) (differs from a neighbour: {e})",
+            i as u32 % AW,
+            i as u32 / AW
         );
+    }
+    assert_eq!(c.primary, u64::from(AW * AH));
+    assert_eq!(c.extra_samples, adaptive_extra(m, n_edge as u64));
+}
+
+#[test]
+fn adaptive_multisampling_traces_nothing_extra_in_a_flat_image() {
+    // A white box's face filling the whole view, and an empty view: every centre equals its
+    // neighbours, so no pixel gets more than its centre ray, and the shadow rays are exactly
+    // those of one sample per pixel.
+    let m = 4u32;
+    let close_up =
+        |samples, threshold| white_cuboid(Vec3::new(100.0, 1.0, 100.0), samples, threshold);
+    let empty_view = |samples, threshold| {
+        let mut d = white_box(samples, threshold);
+        d.solids.clear();
+        d.objects.clear();
+        d
+    };
+    for (name, scene) in [
+        ("face", &close_up as &dyn Fn(u32, f32) -> SceneDesc),
+        ("background", &empty_view),
+    ] {
+        let (single, c1) = render(&scene(1, -1.0));
+        let (adaptive, ca) = render(&scene(m, 0.0));
+        assert!(single.iter().all(|&p| p == single[0]), "{name}: flat");
+        assert_eq!(adaptive, single, "{name}");
+        assert_eq!(ca.primary, u64::from(AW * AH), "{name}");
+        assert_eq!(ca.extra_samples, 0, "{name}: {ca:?}");
+        assert_eq!(ca, c1, "{name}: the same rays as one sample per pixel");
     }
 }
 
-/// Renders the lines `ys` in that order, each into its own buffer, with a fresh scene.
-fn render_some_lines(desc: &SceneDesc, ys: &[u32]) -> Vec<(u32, Vec<Pixel>, RayCounts)> {
+/// Renders the image as a master would with its lines in the order `ys`: each line's first
+/// pass, then each line's second pass in the same order.
+fn render_in_order(desc: &SceneDesc, ys: &[u32]) -> (Vec<Pixel>, RayCounts) {
     let scene = Scene::build(desc, &OctreeParams::default()).expect("valid scene");
-    ys.iter()
-        .map(|&y| {
-            let mut line = vec![Pixel::default(); desc.settings.width as usize];
-            let c = render_line(&scene, y, &mut line).expect("line renders");
-            (y, line, c)
-        })
-        .collect()
+    let s = &desc.settings;
+    let w = s.width as usize;
+    let mut centres = vec![Pixel::default(); w * s.height as usize];
+    let mut counts = RayCounts::default();
+    for &y in ys {
+        let line = &mut centres[y as usize * w..(y as usize + 1) * w];
+        counts += render_line(&scene, y, line).expect("line renders");
+    }
+    let mut image = centres.clone();
+    let row = |y: u32| &centres[y as usize * w..(y as usize + 1) * w];
+    for &y in ys {
+        let mut mask = vec![0u8; mask_len(s.width)];
+        let above = (y > 0).then(|| row(y - 1));
+        let below = (y + 1 < s.height).then(|| row(y + 1));
+        if edge_mask(s.aa_threshold, above, row(y), below, &mut mask) > 0 {
+            let mut refined = vec![Pixel::default(); w];
+            counts += refine_line(&scene, y, &mask, &mut refined).expect("line refines");
+            merge_refined(
+                &mask,
+                &refined,
+                &mut image[y as usize * w..(y as usize + 1) * w],
+            );
+        }
+    }
+    (image, counts)
 }
 
 #[test]
 fn adaptive_multisampling_is_independent_of_line_order() {
     for desc in [white_box(4, 0.05), rich_scene()] {
-        let (w, h) = (desc.settings.width, desc.settings.height);
-        let (image, lines) = render_lines(&desc);
+        let h = desc.settings.height;
+        let (image, counts) = render(&desc);
         let reverse: Vec<u32> = (0..h).rev().collect();
-        let odd: Vec<u32> = (0..h).filter(|y| y % 2 == 1).collect();
         let scattered: Vec<u32> = (0..h).map(|i| (i * 7 + 3) % h).collect();
-        for order in [&reverse, &odd, &scattered] {
-            for (y, line, c) in render_some_lines(&desc, order) {
-                let row = &image[(y * w) as usize..((y + 1) * w) as usize];
-                assert_eq!(line.as_slice(), row, "line {y} in order {order:?}");
-                assert_eq!(c, lines[y as usize], "line {y}'s rays in order {order:?}");
-            }
+        for order in [&reverse, &scattered] {
+            let (again, c) = render_in_order(&desc, order);
+            assert_eq!(again, image, "order {order:?}");
+            assert_eq!(c, counts, "rays in order {order:?}");
         }
     }
 }

@@ -5,7 +5,7 @@ use glam::Vec3;
 use strahl_core::camera::{Camera, LookAtCamera};
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
-use strahl_core::render::render_line;
+use strahl_core::render::render_image;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
 use strahl_core::shade::RayCounts;
 use strahl_core::solid::{CsgOp, Shape, SolidNode};
@@ -98,15 +98,12 @@ fn desc(
     }
 }
 
-/// Renders every line in this thread; returns the image and the rays.
+/// Renders the image in this thread (`render_image`); returns the image and the rays.
 fn render(desc: &SceneDesc) -> (Vec<Pixel>, RayCounts) {
     let scene = Scene::build(desc, &OctreeParams::default()).expect("valid scene");
     let w = desc.settings.width as usize;
     let mut image = vec![Pixel::default(); w * desc.settings.height as usize];
-    let mut counts = RayCounts::default();
-    for (y, line) in image.chunks_mut(w).enumerate() {
-        counts += render_line(&scene, y as u32, line).expect("line renders");
-    }
+    let counts = render_image(&scene, &mut image).expect("image renders");
     (image, counts)
 }
 

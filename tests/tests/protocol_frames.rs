@@ -22,8 +22,9 @@ use strahl_core::protocol::scene_blob::{
     decode_bundle, digest, ChunkOutcome, SceneAssembler, SceneBlob,
 };
 use strahl_core::protocol::{
-    frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_MASTER_FRAME_LEN, MAX_MASTER_PAYLOAD_LEN,
-    MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
+    frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_MASK_LEN, MAX_MASTER_FRAME_LEN,
+    MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN, MAX_WIDTH,
+    PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
 };
 use strahl_core::scene::SceneDesc;
 use strahl_core::shade::RayCounts;
@@ -267,6 +268,11 @@ fn master_samples<'a>(names: &'a str, chunk: &'a [u8]) -> Vec<MasterMessage<'a>>
         },
         MasterMessage::Fence { seq: 0xDEAD_BEEF },
         MasterMessage::EndSession,
+        MasterMessage::RefineLine {
+            job: 3,
+            line: 17,
+            mask: &[0b1010_0001, 0x7F],
+        },
     ]
 }
 
@@ -293,6 +299,7 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
         WorkerMessage::LineResult {
             job: 3,
             line: 9,
+            refined: false,
             rays: RayCounts {
                 primary: 16,
                 shadow: 40,
@@ -311,6 +318,7 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
         Refusal::CorruptScene,
         Refusal::UnknownJob,
         Refusal::LineOutOfRange,
+        Refusal::BadMask,
     ];
     v.extend(
         refusals
@@ -329,6 +337,7 @@ fn master_variant(m: &MasterMessage<'_>) -> usize {
         MasterMessage::RenderLine { .. } => 3,
         MasterMessage::Fence { .. } => 4,
         MasterMessage::EndSession => 5,
+        MasterMessage::RefineLine { .. } => 6,
     }
 }
 
@@ -369,6 +378,7 @@ fn largest_line_result_fits_max_frame_len() {
     let msg = WorkerMessage::LineResult {
         job: u32::MAX,
         line: u32::MAX,
+        refined: false,
         rays: RayCounts {
             primary: u64::MAX,
             extra_samples: u64::MAX,
@@ -403,6 +413,7 @@ fn largest_line_result_fits_max_frame_len() {
 #[test]
 fn largest_master_messages_fit_a_worker_buffer() {
     let chunk = vec![0xFFu8; MAX_CHUNK_LEN];
+    let mask = vec![0xFFu8; MAX_MASK_LEN];
     let name = long_name('n', MAX_NAME_LEN);
     let arch = long_name('a', MAX_NAME_LEN);
     let msgs = [
@@ -426,6 +437,11 @@ fn largest_master_messages_fit_a_worker_buffer() {
         MasterMessage::RenderLine {
             job: u32::MAX,
             line: u32::MAX,
+        },
+        MasterMessage::RefineLine {
+            job: u32::MAX,
+            line: u32::MAX,
+            mask: &mask,
         },
         MasterMessage::Fence { seq: u32::MAX },
     ];
@@ -488,7 +504,7 @@ fn every_message_variant_round_trips() {
     );
     let frames = frames_of(&events);
     assert_eq!(frames.len(), masters.len(), "{events:?}");
-    let mut seen = [false; 6];
+    let mut seen = [false; 7];
     for (payload, m) in frames.iter().zip(&masters) {
         let got = MasterMessage::decode(payload).expect("master message decodes");
         assert_eq!(&got, m);
@@ -552,6 +568,7 @@ fn every_single_bit_flip_is_detected_and_the_next_frame_survives() {
         frame_of(&WorkerMessage::LineResult {
             job: 1,
             line: 2,
+            refined: false,
             rays: RayCounts {
                 primary: 10,
                 shadow: 0,
@@ -744,6 +761,7 @@ fn frame_longer_than_the_buffer_is_dropped_as_too_long() {
     let wide = frame_of(&WorkerMessage::LineResult {
         job: 0,
         line: 0,
+        refined: false,
         rays: RayCounts::default(),
         pixels: &pixels,
     });
@@ -867,6 +885,7 @@ fn line_result_pixels_must_be_whole_and_bounded() {
         payload_of(&WorkerMessage::LineResult {
             job: 1,
             line: 0,
+            refined: false,
             rays: RayCounts::default(),
             pixels,
         })
@@ -887,6 +906,28 @@ fn line_result_pixels_must_be_whole_and_bounded() {
     for len in [PIXEL_WIRE_BYTES, 12, MAX_WIDTH as usize * PIXEL_WIRE_BYTES] {
         let p = line(&vec![1u8; len]);
         assert!(WorkerMessage::decode(&p).is_ok(), "{len} pixel bytes");
+    }
+}
+
+#[test]
+fn refine_masks_are_bounded() {
+    let refine = |mask: &[u8]| {
+        payload_of(&MasterMessage::RefineLine {
+            job: 1,
+            line: 0,
+            mask,
+        })
+    };
+    for len in [0, MAX_MASK_LEN + 1] {
+        assert_eq!(
+            MasterMessage::decode(&refine(&vec![1u8; len])),
+            Err(ProtocolError::BadMask),
+            "{len} mask bytes"
+        );
+    }
+    for len in [1, 80, MAX_MASK_LEN] {
+        let p = refine(&vec![1u8; len]);
+        assert!(MasterMessage::decode(&p).is_ok(), "{len} mask bytes");
     }
 }
 

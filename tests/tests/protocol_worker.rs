@@ -10,6 +10,7 @@
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
 use std::sync::Arc;
+use strahl_core::adaptive::{mask_len, refine_line};
 use strahl_core::camera::{Camera, SeedCamera};
 use strahl_core::error::SceneError;
 use strahl_core::octree::OctreeParams;
@@ -142,6 +143,13 @@ enum Out {
         rays: RayCounts,
         pixels: Vec<Pixel>,
     },
+    /// The answer to a `RefineLine`.
+    Refined {
+        job: u32,
+        line: u32,
+        rays: RayCounts,
+        pixels: Vec<Pixel>,
+    },
     FenceAck {
         seq: u32,
     },
@@ -176,16 +184,26 @@ impl Out {
             WorkerMessage::LineResult {
                 job,
                 line,
+                refined,
                 rays,
                 pixels,
             } => {
                 let mut decoded = vec![Pixel::default(); pixels.len() / PIXEL_WIRE_BYTES];
                 decode_pixels(pixels, &mut decoded).expect("whole pixels");
-                Out::Line {
-                    job,
-                    line,
-                    rays,
-                    pixels: decoded,
+                if refined {
+                    Out::Refined {
+                        job,
+                        line,
+                        rays,
+                        pixels: decoded,
+                    }
+                } else {
+                    Out::Line {
+                        job,
+                        line,
+                        rays,
+                        pixels: decoded,
+                    }
                 }
             }
             WorkerMessage::FenceAck { seq } => Out::FenceAck { seq },
@@ -590,6 +608,98 @@ fn requests_that_cannot_be_served_are_refused() {
 }
 
 #[test]
+fn refine_requests_supersample_the_flagged_pixels() {
+    // The room with adaptive 2×2 multisampling: `RenderLine` answers the centres, `RefineLine`
+    // the flagged pixels' samples (the others black), exactly as `refine_line` computes them.
+    let mut desc = room_desc();
+    desc.settings.samples = 2;
+    desc.settings.aa_threshold = 0.05;
+    let f = fixture(desc);
+    let w = WIDTH as usize;
+    let mut mask = vec![0u8; mask_len(WIDTH)];
+    mask[0] = 0b1000_0001;
+    let last = mask.len() - 1;
+    mask[last] = 0x80 >> (8 * mask.len() - w);
+    let mut refined = vec![Pixel::default(); w];
+    let refined_rays = refine_line(&f.scene, 3, &mask, &mut refined).expect("refines");
+    assert_eq!(refined_rays.extra_samples, 3 * 4, "three flagged pixels");
+    assert!(refined.iter().filter(|&&p| p != Pixel::default()).count() <= 3);
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .chunks_from(&f.blob, 0)
+        .line(1, 3)
+        .send(MasterMessage::RefineLine {
+            job: 1,
+            line: 3,
+            mask: &mask,
+        })
+        // A mask one byte short, and a line outside the image.
+        .send(MasterMessage::RefineLine {
+            job: 1,
+            line: 3,
+            mask: &mask[1..],
+        })
+        .send(MasterMessage::RefineLine {
+            job: 1,
+            line: HEIGHT,
+            mask: &mask,
+        });
+    let mut cache = SceneCache::new();
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let mut want = vec![
+        worker_hello(MEMORY),
+        Out::NeedScene {
+            job: 1,
+            offset: 0,
+            restart: true,
+        },
+    ];
+    want.extend(transfer_answers(&f.blob, 1, 0));
+    want.extend([
+        expected_line(&f, 1, 3),
+        Out::Refined {
+            job: 1,
+            line: 3,
+            rays: refined_rays,
+            pixels: refined,
+        },
+        Out::Refused {
+            job: 1,
+            reason: Refusal::BadMask,
+        },
+        Out::Refused {
+            job: 1,
+            reason: Refusal::LineOutOfRange,
+        },
+    ]);
+    assert_eq!(out, want);
+
+    // A scene without adaptive multisampling has no second pass.
+    let plain = room();
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(2, &plain.blob)
+        .chunks_from(&plain.blob, 0)
+        .send(MasterMessage::RefineLine {
+            job: 2,
+            line: 0,
+            mask: &mask,
+        });
+    let (_, out) = run(&script, &node(MEMORY), &mut SceneCache::new());
+    assert_eq!(
+        out.last(),
+        Some(&Out::Refused {
+            job: 2,
+            reason: Refusal::BadMask,
+        })
+    );
+}
+
+#[test]
 fn fence_is_answered_after_earlier_requests() {
     let f = room();
     let mut script = Script::default();
@@ -743,6 +853,7 @@ fn frame_too_long_for_the_worker_is_dropped() {
         .encode(&WorkerMessage::LineResult {
             job: 0,
             line: 0,
+            refined: false,
             rays: RayCounts::default(),
             pixels: &pixels,
         })

@@ -8,7 +8,9 @@
 
 use crate::error::{ProtocolError, SceneError};
 use crate::pixel::Pixel;
-use crate::protocol::{MAX_CHUNK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES};
+use crate::protocol::{
+    MAX_CHUNK_LEN, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES,
+};
 use crate::shade::RayCounts;
 use serde::{Deserialize, Serialize};
 
@@ -63,8 +65,9 @@ pub enum MasterMessage<'a> {
         /// At most [`MAX_CHUNK_LEN`] bytes.
         bytes: &'a [u8],
     },
-    /// Render one line of the job's image and send a `LineResult`. Requests are answered in the
-    /// order they arrive.
+    /// Render one line of the job's image and send a `LineResult` (`refined: false`). With
+    /// adaptive multisampling this is the first pass: the pixels' centre colours. Requests are
+    /// answered in the order they arrive.
     RenderLine {
         /// The job.
         job: u32,
@@ -79,6 +82,16 @@ pub enum MasterMessage<'a> {
     },
     /// The master is done with this worker; the worker waits for the next master.
     EndSession,
+    /// Adaptive multisampling's second pass: supersample the pixels of one line flagged in
+    /// `mask` and send a `LineResult` (`refined: true`) with them (other pixels black).
+    RefineLine {
+        /// The job.
+        job: u32,
+        /// The line, 0 is the top.
+        line: u32,
+        /// One bit per pixel (`crate::adaptive::mask_len` bytes), at most [`MAX_MASK_LEN`].
+        mask: &'a [u8],
+    },
 }
 
 /// Why a worker refuses a job or request.
@@ -97,6 +110,9 @@ pub enum Refusal {
     UnknownJob,
     /// A request named a line outside the image.
     LineOutOfRange,
+    /// A `RefineLine` whose mask does not fit the image width, or for a scene without adaptive
+    /// multisampling.
+    BadMask,
 }
 
 /// Worker to master.
@@ -126,6 +142,8 @@ pub enum WorkerMessage<'a> {
         job: u32,
         /// The line it answers.
         line: u32,
+        /// `true` for a `RefineLine`'s answer, `false` for a `RenderLine`'s.
+        refined: bool,
         /// Rays traced for it, by kind.
         rays: RayCounts,
         /// The line's pixels, [`PIXEL_WIRE_BYTES`] each ([`encode_pixels`]).
@@ -170,6 +188,11 @@ impl<'a> MasterMessage<'a> {
                     || u64::from(offset) + bytes.len() as u64 > u64::from(MAX_SCENE_LEN)
                 {
                     return Err(ProtocolError::BadChunk);
+                }
+            }
+            MasterMessage::RefineLine { mask, .. } => {
+                if mask.is_empty() || mask.len() > MAX_MASK_LEN {
+                    return Err(ProtocolError::BadMask);
                 }
             }
             MasterMessage::RenderLine { .. }

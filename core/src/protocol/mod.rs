@@ -24,7 +24,7 @@ pub mod worker;
 /// talk: the worker answers with its own `Hello` (so the master can report both versions) and
 /// ends the session. `Hello` stays the first variant of both message enums, with the version as
 /// its first field, in every version.
-pub const PROTOCOL_VERSION: u32 = 2;
+pub const PROTOCOL_VERSION: u32 = 3;
 
 /// The widest image line a line result carries, in pixels (the scene's own limit).
 pub const MAX_WIDTH: u32 = crate::scene::MAX_IMAGE_SIDE;
@@ -57,8 +57,13 @@ pub const CRC_LEN: usize = 4;
 /// [`MAX_WIDTH`] pixels.
 pub const MAX_PAYLOAD_LEN: usize = MAX_WIDTH as usize * PIXEL_WIRE_BYTES + MAX_HEADER_LEN;
 
-/// The largest payload a master sends: a scene chunk, or a `Hello` with two names.
-pub const MAX_MASTER_PAYLOAD_LEN: usize = MAX_HEADER_LEN + max(MAX_CHUNK_LEN, 2 * MAX_NAME_LEN);
+/// The longest `RefineLine` mask: one bit per pixel of a [`MAX_WIDTH`] line.
+pub const MAX_MASK_LEN: usize = MAX_WIDTH.div_ceil(8) as usize;
+
+/// The largest payload a master sends: a scene chunk, a `Hello` with two names, or a refine
+/// request's mask.
+pub const MAX_MASTER_PAYLOAD_LEN: usize =
+    MAX_HEADER_LEN + max(max(MAX_CHUNK_LEN, 2 * MAX_NAME_LEN), MAX_MASK_LEN);
 
 /// The longest frame on the wire: COBS overhead and the two `0x00` delimiters included.
 pub const MAX_FRAME_LEN: usize = frame_len(MAX_PAYLOAD_LEN);

@@ -13,7 +13,9 @@
 //! The [`SceneCache`] outlives sessions: a worker that serves the next master, or the next job
 //! of the same master, with a scene it already has skips the transfer.
 
+use crate::adaptive::refine_line;
 use crate::error::ProtocolError;
+use crate::error::RenderError;
 use crate::pixel::Pixel;
 use crate::protocol::frame::{FrameReader, FrameWriteError, FrameWriter, LinkError, ReadEvent};
 use crate::protocol::message::{
@@ -228,7 +230,8 @@ impl<L: Read + Write> Session<'_, &mut L> {
                 offset,
                 bytes,
             } => self.take_chunk(&digest, offset, bytes, cache)?,
-            MasterMessage::RenderLine { job, line } => self.render(job, line)?,
+            MasterMessage::RenderLine { job, line } => self.render(job, line, None)?,
+            MasterMessage::RefineLine { job, line, mask } => self.render(job, line, Some(mask))?,
             MasterMessage::Fence { seq } => self.send(&WorkerMessage::FenceAck { seq })?,
             MasterMessage::EndSession => return Ok(Some(SessionEnd::Ended)),
         }
@@ -357,7 +360,9 @@ impl<L: Read + Write> Session<'_, &mut L> {
         }
     }
 
-    fn render(&mut self, id: u32, line: u32) -> Result<(), WorkerError> {
+    /// Renders `line` (the first pass), or with `mask` the second pass of adaptive
+    /// multisampling, and sends the result.
+    fn render(&mut self, id: u32, line: u32, mask: Option<&[u8]>) -> Result<(), WorkerError> {
         let refusal = match &mut self.job {
             Some(Job {
                 id: current,
@@ -368,21 +373,29 @@ impl<L: Read + Write> Session<'_, &mut L> {
                         wire,
                     },
                 ..
-            }) if *current == id => match render_line(scene, line, pixels) {
-                Ok(rays) => {
-                    encode_pixels(pixels, wire).map_err(WorkerError::Encode)?;
-                    return Ok(self.writer.send(
-                        self.link,
-                        &WorkerMessage::LineResult {
-                            job: id,
-                            line,
-                            rays,
-                            pixels: wire,
-                        },
-                    )?);
+            }) if *current == id => {
+                let rendered = match mask {
+                    None => render_line(scene, line, pixels),
+                    Some(mask) => refine_line(scene, line, mask, pixels),
+                };
+                match rendered {
+                    Ok(rays) => {
+                        encode_pixels(pixels, wire).map_err(WorkerError::Encode)?;
+                        return Ok(self.writer.send(
+                            self.link,
+                            &WorkerMessage::LineResult {
+                                job: id,
+                                line,
+                                refined: mask.is_some(),
+                                rays,
+                                pixels: wire,
+                            },
+                        )?);
+                    }
+                    Err(RenderError::LineOutOfRange) => Refusal::LineOutOfRange,
+                    Err(_) => Refusal::BadMask,
                 }
-                Err(_) => Refusal::LineOutOfRange,
-            },
+            }
             Some(Job {
                 id: current,
                 stage: Stage::Refused(reason),

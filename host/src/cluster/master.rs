@@ -6,7 +6,9 @@
 //! or dead peer. The loop runs the handshake of each worker (`Hello`, `Job`, scene chunks,
 //! `Ready`), keeps each ready worker's window of outstanding requests full from the
 //! [`LineScheduler`], and takes results: the first result of a line is used, later copies are
-//! counted and dropped.
+//! counted and dropped. With adaptive multisampling each line has a second task, queued once the
+//! first passes of the line and its neighbours are in and some pixel needs more samples
+//! (`RefineLine` with the flagged pixels' mask); its pixels are merged into the line.
 //!
 //! Lost work is found three ways. Workers answer requests in order, so a result for a later
 //! request means the earlier ones were lost on the link. A dropped frame (either side) or a
@@ -24,6 +26,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use strahl_core::adaptive::{edge_mask, mask_len, merge_refined};
 use strahl_core::pixel::Pixel;
 use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
@@ -72,6 +75,17 @@ pub struct ClusterJob {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// Adaptive multisampling's second pass, if the scene uses it.
+    pub adaptive: Option<AdaptiveJob>,
+}
+
+/// How the master decides adaptive multisampling's second pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveJob {
+    /// Pixels whose centre differs from a neighbour's by more than this are supersampled.
+    pub threshold: f32,
+    /// Ask for every pixel's samples and keep only the flagged ones (`--skip-effects off`).
+    pub refine_all: bool,
 }
 
 /// A finished distributed render.
@@ -144,6 +158,7 @@ enum Incoming {
     Line {
         job: u32,
         line: u32,
+        refined: bool,
         rays: RayCounts,
         pixels: Vec<Pixel>,
     },
@@ -191,6 +206,7 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
         WorkerMessage::LineResult {
             job,
             line,
+            refined,
             rays,
             pixels,
         } => {
@@ -199,6 +215,7 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
             Incoming::Line {
                 job,
                 line,
+                refined,
                 rays,
                 pixels: out,
             }
@@ -311,10 +328,11 @@ enum State {
     Gone,
 }
 
-/// One outstanding line request.
+/// One outstanding request: task `y` is line `y`'s (first) pass, task `height + y` its
+/// adaptive second pass.
 #[derive(Clone, Copy, Debug)]
 struct Request {
-    line: u32,
+    task: u32,
     seq: u32,
     sent: Instant,
 }
@@ -357,6 +375,11 @@ struct Master<'a> {
     slots: Vec<Slot>,
     sched: LineScheduler,
     pixels: Vec<Pixel>,
+    /// With adaptive multisampling: every line's first-pass pixels (centres), each line's
+    /// flagged pixels once known, and the rays of its first pass.
+    centres: Vec<Pixel>,
+    edges: Vec<Option<Vec<u8>>>,
+    first_rays: Vec<RayCounts>,
     rays: RayCounts,
     frames: FrameWriter,
     events_tx: Sender<Event>,
@@ -388,8 +411,14 @@ pub fn run_master(
         job,
         opts,
         slots: Vec::new(),
-        sched: LineScheduler::new(job.height),
+        sched: match job.adaptive {
+            Some(_) => LineScheduler::with_pending(2 * job.height, job.height),
+            None => LineScheduler::new(job.height),
+        },
         pixels: vec![Pixel::default(); job.width as usize * job.height as usize],
+        centres: Vec::new(),
+        edges: Vec::new(),
+        first_rays: Vec::new(),
         rays: RayCounts::default(),
         frames: FrameWriter::new(),
         events_tx,
@@ -398,6 +427,11 @@ pub fn run_master(
         on_line,
         log,
     };
+    if job.adaptive.is_some() {
+        m.centres = m.pixels.clone();
+        m.edges = vec![None; job.height as usize];
+        m.first_rays = vec![RayCounts::default(); job.height as usize];
+    }
     for link in links {
         m.add(link);
     }
@@ -662,9 +696,20 @@ impl Master<'_> {
             Incoming::Line {
                 job: j,
                 line,
+                refined,
                 rays,
                 pixels,
-            } if j == job && line < self.job.height => self.take_line(id, line, rays, &pixels, now),
+            } if j == job
+                && line < self.job.height
+                && (!refined || self.job.adaptive.is_some()) =>
+            {
+                let task = if refined {
+                    self.job.height + line
+                } else {
+                    line
+                };
+                self.take_line(id, task, rays, &pixels, now);
+            }
             Incoming::FenceAck { seq } => {
                 let slot = &mut self.slots[id];
                 if let Some((fence, upto, _)) = slot.fence {
@@ -674,7 +719,7 @@ impl Master<'_> {
                             .requests
                             .iter()
                             .filter(|r| r.seq < upto)
-                            .map(|r| r.line)
+                            .map(|r| r.task)
                             .collect();
                         slot.requests.retain(|r| r.seq >= upto);
                         self.release(id, &lost);
@@ -698,16 +743,16 @@ impl Master<'_> {
         }
     }
 
-    fn take_line(&mut self, id: usize, line: u32, rays: RayCounts, pixels: &[Pixel], now: Instant) {
+    fn take_line(&mut self, id: usize, task: u32, rays: RayCounts, pixels: &[Pixel], now: Instant) {
         let slot = &mut self.slots[id];
         // Only answers to requests count; anything else is a peer's mistake, not a pixel.
-        let Some(i) = slot.requests.iter().position(|r| r.line == line) else {
+        let Some(i) = slot.requests.iter().position(|r| r.task == task) else {
             slot.report.frames_dropped += 1;
             return;
         };
         slot.last_progress = now;
         // Requests are answered in order: those before this one were lost.
-        let lost: Vec<u32> = slot.requests.drain(..i).map(|r| r.line).collect();
+        let lost: Vec<u32> = slot.requests.drain(..i).map(|r| r.task).collect();
         if let Some(r) = slot.requests.pop_front() {
             let started = slot.last_result.map_or(r.sent, |t| t.max(r.sent));
             slot.report.busy += now.saturating_duration_since(started);
@@ -715,17 +760,67 @@ impl Master<'_> {
         slot.last_result = Some(now);
         slot.idle = slot.requests.is_empty() && lost.is_empty();
         slot.report.rays += rays;
-        if self.sched.complete(line, true) {
-            let w = self.job.width as usize;
-            let at = line as usize * w;
-            self.pixels[at..at + w].copy_from_slice(pixels);
-            self.rays += rays;
+        if self.sched.complete(task, true) {
             self.slots[id].report.lines += 1;
-            (self.on_line)(line, rays);
+            self.rays += rays;
+            self.use_result(task, rays, pixels);
         } else {
             self.slots[id].report.duplicates += 1;
         }
         self.release(id, &lost);
+    }
+
+    /// Puts the first result of `task` into the image.
+    fn use_result(&mut self, task: u32, rays: RayCounts, pixels: &[Pixel]) {
+        let (w, h) = (self.job.width as usize, self.job.height);
+        let Some(adaptive) = self.job.adaptive else {
+            let at = task as usize * w;
+            self.pixels[at..at + w].copy_from_slice(pixels);
+            (self.on_line)(task, rays);
+            return;
+        };
+        if task >= h {
+            // A second pass: its flagged pixels replace the centres.
+            let line = task - h;
+            let at = line as usize * w;
+            if let Some(edges) = &self.edges[line as usize] {
+                merge_refined(edges, pixels, &mut self.pixels[at..at + w]);
+            }
+            let mut all = self.first_rays[line as usize];
+            all += rays;
+            (self.on_line)(line, all);
+            return;
+        }
+        let at = task as usize * w;
+        self.pixels[at..at + w].copy_from_slice(pixels);
+        self.centres[at..at + w].copy_from_slice(pixels);
+        self.first_rays[task as usize] = rays;
+        // This line and its neighbours may now know which pixels to supersample.
+        for line in task.saturating_sub(1)..(task + 2).min(h) {
+            let first_done = |l: u32| self.sched.is_done(l);
+            let ready = self.edges[line as usize].is_none()
+                && first_done(line)
+                && (line == 0 || first_done(line - 1))
+                && (line + 1 == h || first_done(line + 1));
+            if !ready {
+                continue;
+            }
+            let row = |l: u32| &self.centres[l as usize * w..(l as usize + 1) * w];
+            let mut mask = vec![0u8; mask_len(self.job.width)];
+            let flagged = edge_mask(
+                adaptive.threshold,
+                (line > 0).then(|| row(line - 1)),
+                row(line),
+                (line + 1 < h).then(|| row(line + 1)),
+                &mut mask,
+            );
+            self.edges[line as usize] = Some(mask);
+            if flagged > 0 || adaptive.refine_all {
+                self.sched.queue(h + line);
+            } else if self.sched.complete(h + line, false) {
+                (self.on_line)(line, self.first_rays[line as usize]);
+            }
+        }
     }
 
     /// Gives `lines` of worker `id` back to the scheduler.
@@ -747,7 +842,7 @@ impl Master<'_> {
         slot.tx = None;
         slot.outbox.cut.store(true, Ordering::Relaxed);
         (slot.closer)();
-        let lines: Vec<u32> = slot.requests.drain(..).map(|r| r.line).collect();
+        let lines: Vec<u32> = slot.requests.drain(..).map(|r| r.task).collect();
         let before = slot.report.reissued;
         self.release(id, &lines);
         let slot = &mut self.slots[id];
@@ -818,7 +913,7 @@ impl Master<'_> {
             }
             if self.slots[id].requests.is_empty() {
                 let slot = &self.slots[id];
-                let held = |l: u32| slot.requests.iter().any(|r| r.line == l);
+                let held = |l: u32| slot.requests.iter().any(|r| r.task == l);
                 if let Some(line) = self.sched.next_copy(held) {
                     self.request(id, line, now);
                 }
@@ -826,7 +921,7 @@ impl Master<'_> {
         }
     }
 
-    fn request(&mut self, id: usize, line: u32, now: Instant) {
+    fn request(&mut self, id: usize, task: u32, now: Instant) {
         let slot = &mut self.slots[id];
         let seq = slot.next_seq;
         slot.next_seq += 1;
@@ -836,12 +931,40 @@ impl Master<'_> {
             slot.idle = false;
         }
         slot.requests.push_back(Request {
-            line,
+            task,
             seq,
             sent: now,
         });
         let job = self.job.id;
-        self.send(id, &MasterMessage::RenderLine { job, line });
+        let h = self.job.height;
+        if task < h {
+            self.send(id, &MasterMessage::RenderLine { job, line: task });
+            return;
+        }
+        let line = task - h;
+        let all = vec![0xffu8; mask_len(self.job.width)];
+        let mask = match (self.job.adaptive, &self.edges[line as usize]) {
+            (Some(a), _) if a.refine_all => all,
+            (_, Some(edges)) => edges.clone(),
+            _ => all,
+        };
+        self.send(
+            id,
+            &MasterMessage::RefineLine {
+                job,
+                line,
+                mask: &mask,
+            },
+        );
+    }
+
+    /// Lines whose final pixels are in.
+    fn lines_finished(&self) -> u32 {
+        let h = self.job.height;
+        match self.job.adaptive {
+            Some(_) => (h..2 * h).filter(|&t| self.sched.is_done(t)).count() as u32,
+            None => self.sched.finished(),
+        }
     }
 
     fn finish(mut self) -> Result<ClusterImage, ClusterError> {
@@ -876,10 +999,11 @@ impl Master<'_> {
                 (slot.closer)();
             }
         }
+        let finished = self.lines_finished();
         let workers: Vec<WorkerReport> = self.slots.into_iter().map(|s| s.report).collect();
         if !self.sched.is_complete() {
             return Err(ClusterError::AllWorkersLost {
-                finished: self.sched.finished(),
+                finished,
                 total: self.job.height,
                 workers,
             });
@@ -902,5 +1026,6 @@ pub fn refusal_text(reason: Refusal) -> String {
         Refusal::CorruptScene => "the scene arrived corrupted".to_string(),
         Refusal::UnknownJob => "it does not know the job".to_string(),
         Refusal::LineOutOfRange => "a line outside the image was requested".to_string(),
+        Refusal::BadMask => "a refine request did not fit the scene".to_string(),
     }
 }

@@ -1,9 +1,10 @@
 //! A scene prepared once for a distributed render: built for the master and in-process workers,
 //! encoded for the others.
 
-use crate::cluster::master::ClusterJob;
+use crate::cluster::master::{AdaptiveJob, ClusterJob};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
+use strahl_core::adaptive::is_adaptive;
 use strahl_core::error::{ProtocolError, SceneError};
 use strahl_core::octree::OctreeParams;
 use strahl_core::protocol::scene_blob::SceneBlob;
@@ -60,6 +61,10 @@ impl PreparedScene {
             blob: Arc::clone(&self.blob),
             width: self.scene.settings.width,
             height: self.scene.settings.height,
+            adaptive: is_adaptive(&self.scene.settings).then_some(AdaptiveJob {
+                threshold: self.scene.settings.aa_threshold,
+                refine_all: !self.scene.settings.skip_effects,
+            }),
         }
     }
 }

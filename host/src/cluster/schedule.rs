@@ -6,6 +6,10 @@
 //! of the image; the first result wins ([`LineScheduler::complete`] says whether it was first).
 //! A line given up by its last holder (worker lost, request lost) goes back to the front of the
 //! queue. The simulated cluster's discrete-event model drives this same type.
+//!
+//! The master schedules tasks: with adaptive multisampling each line has two, its first pass
+//! (task `y`) and its second (task `height + y`), which is queued only once the first passes of
+//! the line and its neighbours are in (or finished at once when no pixel needs it).
 
 use std::collections::VecDeque;
 
@@ -27,6 +31,25 @@ impl LineScheduler {
             done: vec![false; height as usize],
             waiting: (0..height).collect(),
             finished: 0,
+        }
+    }
+
+    /// A scheduler for `total` tasks of which only the first `waiting` wait from the start; the
+    /// others wait once [`LineScheduler::queue`]d (adaptive multisampling's second passes,
+    /// which need their neighbours' first passes).
+    pub fn with_pending(total: u32, waiting: u32) -> Self {
+        LineScheduler {
+            holders: vec![0; total as usize],
+            done: vec![false; total as usize],
+            waiting: (0..waiting.min(total)).collect(),
+            finished: 0,
+        }
+    }
+
+    /// Puts a pending task at the back of the queue.
+    pub fn queue(&mut self, task: u32) {
+        if !self.is_done(task) {
+            self.waiting.push_back(task);
         }
     }
 
@@ -137,6 +160,29 @@ mod tests {
         assert!(s.complete(1, true));
         assert!(s.is_complete());
         assert_eq!(s.next_copy(|_| false), None);
+    }
+
+    #[test]
+    fn pending_tasks_wait_until_queued() {
+        // Two lines with adaptive second passes (tasks 2 and 3).
+        let mut s = LineScheduler::with_pending(4, 2);
+        assert_eq!(s.next_waiting(), Some(0));
+        assert_eq!(s.next_waiting(), Some(1));
+        assert_eq!(s.next_waiting(), None, "second passes are not waiting yet");
+        assert!(s.complete(0, true) && s.complete(1, true));
+        assert!(!s.is_complete());
+        s.queue(3);
+        // Task 2 needs no second pass: finished without being handed out.
+        assert!(s.complete(2, false));
+        s.queue(2);
+        assert_eq!(s.next_waiting(), Some(3));
+        assert_eq!(
+            s.next_waiting(),
+            None,
+            "a finished task is never handed out"
+        );
+        assert!(s.complete(3, true));
+        assert!(s.is_complete());
     }
 
     #[test]
