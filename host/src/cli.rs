@@ -10,11 +10,12 @@ use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::executor::{start_workers, ClusterArgs};
 use crate::load::{load_scene, Overrides};
-use crate::output::{check_output_path, write_image};
+use crate::output::{check_output_path, write_atomically, write_image};
 use crate::progress::Progress;
 use crate::summary::{RenderStats, RenderSummary};
 use anyhow::anyhow;
 use clap::{Args, Parser, Subcommand};
+use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
@@ -185,7 +186,8 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
     }
 }
 
-/// Checks that the folder of `--stats-json FILE` exists and `FILE` is not a folder.
+/// Checks that `--stats-json FILE` can be written: its folder exists and takes a new file, and
+/// `FILE` is not a folder or a device.
 ///
 /// # Errors
 /// A message naming the path.
@@ -207,6 +209,18 @@ fn check_stats_path(path: &std::path::Path) -> anyhow::Result<()> {
             path.display()
         );
     }
+    if path.exists() && !path.is_file() {
+        anyhow::bail!(
+            "{}: cannot write the statistics: it is not a regular file",
+            path.display()
+        );
+    }
+    // The file is written through a temporary file in the folder: try one now.
+    tempfile::Builder::new()
+        .prefix(".strahl-")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))?;
     Ok(())
 }
 
@@ -376,9 +390,16 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     };
     if let Some(path) = &args.stats_json {
         let stats = RenderStats::new(&summary, settings.samples, scene.effects, &image.workers);
-        let json = serde_json::to_string_pretty(&stats)?;
-        std::fs::write(path, json + "\n")
-            .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))?;
+        let json = serde_json::to_string_pretty(&stats)? + "\n";
+        let written = write_atomically(path, |w| {
+            w.write_all(json.as_bytes())
+                .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
+        });
+        if let Err(e) = written {
+            // All or nothing: no image without its statistics.
+            let _ = std::fs::remove_file(&loaded.output);
+            return Err(e);
+        }
     }
     if !args.quiet {
         eprintln!("{summary}");

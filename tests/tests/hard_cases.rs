@@ -967,7 +967,7 @@ fn grazing_rays_parallel_to_a_triangle() {
 
     // A camera on the floor plane, and one above it: with an odd height the middle line's rays
     // are exactly parallel to the floor (direction z = 0). (At z = 1 every floor hit is at
-    // t ≥ 16.5; for a lower eye see the ignored `camera_just_above_a_large_floor_sees_it`.)
+    // t ≥ 16.5; for an eye 1e-3 above it see `camera_just_above_a_large_floor_sees_it`.)
     for eye_z in [0.0f32, 1.0] {
         let scene = build(&low_eye_over_a_large_floor(eye_z));
         assert_eq!(pixel_ray(&scene, 5, 16).dir.z, 0.0);
@@ -1148,7 +1148,7 @@ fn near_parallel_sweep(first: i32, last: i32) -> usize {
 
 #[test]
 fn near_parallel_rays_hit_continuously() {
-    // 1e-3 to 1e-5 radians; below that see the ignored test after this one.
+    // 1e-3 to 1e-5 radians; below that see the test after this one.
     let rays = near_parallel_sweep(3, 5);
     assert_eq!(rays, 2 * 4 * 8 * 101);
 }
