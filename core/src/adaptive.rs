@@ -45,17 +45,18 @@ fn differs(threshold: f32, a: Pixel, b: Pixel) -> bool {
     f32::from(d) / 65535.0 > threshold
 }
 
-/// Flags in `mask` the pixels of `here` (a line's centres) that differ from their left or right
-/// neighbour, or from the pixel above or below (`above`, `below`: the neighbouring lines'
-/// centres, `None` at the image's edge), by more than `threshold`. Returns how many are flagged.
-/// `mask` must be [`mask_len`] of the line's width long; bits past the width stay clear.
-pub fn edge_mask(
-    threshold: f32,
-    above: Option<&[Pixel]>,
-    here: &[Pixel],
-    below: Option<&[Pixel]>,
-    mask: &mut [u8],
-) -> u32 {
+/// Flags in `mask` the pixels of line `y` of `centres` (every line's first-pass pixels,
+/// row-major, `width` per line) whose centre differs from its left or right neighbour, or from
+/// the pixel above or below, by more than `threshold`. Returns how many are flagged. Only lines
+/// `y − 1` to `y + 1` are read. `mask` must be [`mask_len`] of `width` long; bits past the width
+/// stay clear.
+pub fn edge_mask(threshold: f32, centres: &[Pixel], width: u32, y: u32, mask: &mut [u8]) -> u32 {
+    let w = width as usize;
+    let row = |l: usize| centres.get(l * w..(l + 1) * w);
+    let y = y as usize;
+    let here = row(y).unwrap_or(&[]);
+    let above = y.checked_sub(1).and_then(row);
+    let below = row(y + 1);
     mask.fill(0);
     let mut flagged = 0;
     for (x, &c) in here.iter().enumerate() {
@@ -135,20 +136,23 @@ mod tests {
 
     #[test]
     fn flags_pixels_next_to_a_difference_in_any_direction() {
-        let mut here = [GREY; 10];
-        here[4] = Pixel([30000, 40000, 30000]);
-        let mut below = [GREY; 10];
-        below[8] = Pixel([0, 0, 0]);
+        // Three lines of 10: line 1 has a bright pixel at 4, line 2 a black one at 8.
+        let mut image = [GREY; 30];
+        image[14] = Pixel([30000, 40000, 30000]);
+        image[28] = Pixel([0, 0, 0]);
         let mut mask = [0u8; 2];
-        let n = edge_mask(0.1, Some(&[GREY; 10]), &here, Some(&below), &mut mask);
-        // 3, 4, 5 around the bright pixel; 8 above the dark one.
+        let n = edge_mask(0.1, &image, 10, 1, &mut mask);
+        // 3, 4, 5 around the bright pixel; 8 above the black one.
         assert_eq!(n, 4);
         let flagged: alloc::vec::Vec<usize> = (0..10).filter(|&x| is_flagged(&mask, x)).collect();
         assert_eq!(flagged, [3, 4, 5, 8]);
-        // A threshold above the difference flags only the dark one's neighbour.
-        assert_eq!(edge_mask(0.2, None, &here, Some(&below), &mut mask), 1);
-        assert_eq!(edge_mask(1.0, None, &here, Some(&below), &mut mask), 0);
+        // A threshold above the bright difference flags only the black one's neighbour.
+        assert_eq!(edge_mask(0.2, &image, 10, 1, &mut mask), 1);
+        assert_eq!(edge_mask(1.0, &image, 10, 1, &mut mask), 0);
         assert_eq!(mask, [0, 0]);
+        // The top line has no line above: only the pixel over the bright one is flagged.
+        assert_eq!(edge_mask(0.1, &image, 10, 0, &mut mask), 1);
+        assert!(is_flagged(&mask, 4));
     }
 
     #[test]

@@ -118,10 +118,7 @@ pub fn render_image(scene: &Scene, pixels: &mut [Pixel]) -> Result<RayCounts, Re
     let all = vec![0xffu8; mask_len(s.width)];
     let mut refined = vec![Pixel::default(); w];
     for (y, line) in pixels.chunks_mut(w).enumerate() {
-        let row = |yy: usize| &centres[yy * w..(yy + 1) * w];
-        let above = (y > 0).then(|| row(y - 1));
-        let below = (y + 1 < s.height as usize).then(|| row(y + 1));
-        let flagged = edge_mask(s.aa_threshold, above, row(y), below, &mut edges);
+        let flagged = edge_mask(s.aa_threshold, &centres, s.width, y as u32, &mut edges);
         // Without skipping, every pixel is supersampled and only the flagged ones are kept.
         let request = if s.skip_effects { &edges } else { &all };
         if flagged > 0 || !s.skip_effects {

@@ -892,12 +892,9 @@ fn render_in_order(desc: &SceneDesc, ys: &[u32]) -> (Vec<Pixel>, RayCounts) {
         counts += render_line(&scene, y, line).expect("line renders");
     }
     let mut image = centres.clone();
-    let row = |y: u32| &centres[y as usize * w..(y as usize + 1) * w];
     for &y in ys {
         let mut mask = vec![0u8; mask_len(s.width)];
-        let above = (y > 0).then(|| row(y - 1));
-        let below = (y + 1 < s.height).then(|| row(y + 1));
-        if edge_mask(s.aa_threshold, above, row(y), below, &mut mask) > 0 {
+        if edge_mask(s.aa_threshold, &centres, s.width, y, &mut mask) > 0 {
             let mut refined = vec![Pixel::default(); w];
             counts += refine_line(&scene, y, &mask, &mut refined).expect("line refines");
             merge_refined(

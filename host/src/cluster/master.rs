@@ -805,13 +805,12 @@ impl Master<'_> {
             if !ready {
                 continue;
             }
-            let row = |l: u32| &self.centres[l as usize * w..(l as usize + 1) * w];
             let mut mask = vec![0u8; mask_len(self.job.width)];
             let flagged = edge_mask(
                 adaptive.threshold,
-                (line > 0).then(|| row(line - 1)),
-                row(line),
-                (line + 1 < h).then(|| row(line + 1)),
+                &self.centres,
+                self.job.width,
+                line,
                 &mut mask,
             );
             self.edges[line as usize] = Some(mask);
@@ -942,11 +941,10 @@ impl Master<'_> {
             return;
         }
         let line = task - h;
-        let all = vec![0xffu8; mask_len(self.job.width)];
+        // The flagged pixels, or every pixel without skipping (only flagged ones are kept).
         let mask = match (self.job.adaptive, &self.edges[line as usize]) {
-            (Some(a), _) if a.refine_all => all,
-            (_, Some(edges)) => edges.clone(),
-            _ => all,
+            (Some(a), Some(edges)) if !a.refine_all => edges.clone(),
+            _ => vec![0xffu8; mask_len(self.job.width)],
         };
         self.send(
             id,
