@@ -202,6 +202,11 @@ impl Solids {
         &self.bounds
     }
 
+    /// Number of triangles in the meshes of CSG solids.
+    pub fn mesh_triangle_count(&self) -> usize {
+        self.mesh_triangles.len()
+    }
+
     /// Number of scene objects.
     pub fn len(&self) -> usize {
         self.objects.len()
@@ -273,6 +278,16 @@ impl Solids {
                     &scratch.spans[sa..sb],
                     &scratch.spans[sb..],
                     &mut combined,
+                    |bound| {
+                        let hit = SolidHit {
+                            t: bound.t,
+                            t_error: bound.t_error,
+                            leaf: bound.leaf,
+                            face: bound.face,
+                            flip: bound.flip,
+                        };
+                        self.surface(ray, &hit).normal
+                    },
                 );
                 scratch.spans.truncate(start);
                 scratch.spans.extend_from_slice(&combined);

@@ -167,25 +167,39 @@ fn plane(n: Vec3, offset: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
 }
 
 fn cuboid(half: Vec3, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
-    let mut enter = Crossing {
-        t: f32::NEG_INFINITY,
-        ..OPEN
-    };
-    let mut exit = OPEN;
+    // Each axis's slab as (near, far, near face, far face); `None` where the ray runs parallel to
+    // the slab and inside it.
+    let mut slabs = [None; 3];
     for a in 0..3 {
         if d[a] == 0.0 {
-            if o[a] < -half[a] || o[a] > half[a] {
+            if !in_slab_parallel(o[a], half[a], position_error(o, d, 0.0)) {
                 return None;
             }
             continue;
         }
         let inv = 1.0 / d[a];
-        let (mut near, mut far) = ((-half[a] - o[a]) * inv, (half[a] - o[a]) * inv);
-        let (mut near_face, mut far_face) = (2 * a as u32, 2 * a as u32 + 1);
-        if near > far {
-            core::mem::swap(&mut near, &mut far);
-            core::mem::swap(&mut near_face, &mut far_face);
+        let (near, far) = ((-half[a] - o[a]) * inv, (half[a] - o[a]) * inv);
+        let (near_face, far_face) = (2 * a as u32, 2 * a as u32 + 1);
+        slabs[a] = Some(if near <= far {
+            (near, far, near_face, far_face)
+        } else {
+            (far, near, far_face, near_face)
+        });
+    }
+    for a in 0..3 {
+        if in_face_plane(half, o, d, a, &slabs) {
+            slabs[a] = None;
         }
+    }
+    let mut enter = Crossing {
+        t: f32::NEG_INFINITY,
+        ..OPEN
+    };
+    let mut exit = OPEN;
+    for (a, slab) in slabs.iter().enumerate() {
+        let Some((near, far, near_face, far_face)) = *slab else {
+            continue;
+        };
         // Ties go to the lower axis, so a ray through an edge names one face on every machine.
         if near > enter.t {
             enter = crossing(o, d, near, near_face, d[a]);
@@ -195,6 +209,50 @@ fn cuboid(half: Vec3, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
         }
     }
     touching(enter, exit)
+}
+
+/// Whether a ray parallel to the slab `−h ≤ x ≤ h` at coordinate `x` (known within `error`) is
+/// inside it. Exactly on a face plane the slab is half-open, `[−h, h)`: two boxes that share a
+/// face exactly claim its plane once, so their union has no crack along it and their
+/// intersection, of zero volume, stays empty. Within `error` of a plane but not on it, the ray
+/// counts as inside: where two operands' faces coincide only up to rounding (a rotated union of
+/// boxes sharing a face), neither can drop it, so it cannot fall through a crack between them.
+fn in_slab_parallel(x: f32, h: f32, error: f32) -> bool {
+    if x == h {
+        false
+    } else {
+        x == -h || (x.abs() - h).abs() <= error || (-h < x && x < h)
+    }
+}
+
+/// True if the ray stays within its rounding error of one of axis `a`'s face planes all the way
+/// through the other two slabs: as far as f32 can tell it runs parallel to that plane, and its
+/// crossing of the plane is noise. The slab then counts as inside by [`in_slab_parallel`]'s
+/// rule for rays near a plane.
+fn in_face_plane(
+    half: Vec3,
+    o: Vec3,
+    d: Vec3,
+    a: usize,
+    slabs: &[Option<(f32, f32, Face, Face)>; 3],
+) -> bool {
+    if slabs[a].is_none() {
+        return false;
+    }
+    let (mut lo, mut hi) = (f32::NEG_INFINITY, f32::INFINITY);
+    for (b, slab) in slabs.iter().enumerate() {
+        if let (true, Some((near, far, ..))) = (b != a, slab) {
+            lo = lo.max(*near);
+            hi = hi.min(*far);
+        }
+    }
+    if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
+        return false;
+    }
+    let (x0, x1) = (o[a] + d[a] * lo, o[a] + d[a] * hi);
+    let error = position_error(o, d, lo).max(position_error(o, d, hi));
+    let on_face = |x: f32| (x.abs() - half[a]).abs() <= error;
+    on_face(x0) && on_face(x1) && (x0 < 0.0) == (x1 < 0.0)
 }
 
 /// The span from `enter` to `exit`; a ray that only touches the shape, with `exit` before
@@ -215,7 +273,8 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     let half = 0.5 * h;
     // Slab between the caps.
     let (mut lo, mut hi, mut lo_face, mut hi_face) = if d.y == 0.0 {
-        if o.y < -half || o.y > half {
+        // Parallel to the caps: the box's rule for rays in a face plane.
+        if !in_slab_parallel(o.y, half, position_error(o, d, 0.0)) {
             return None;
         }
         (f32::NEG_INFINITY, f32::INFINITY, 1u32, 2u32)

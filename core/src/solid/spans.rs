@@ -13,6 +13,7 @@
 
 use super::CsgOp;
 use alloc::vec::Vec;
+use glam::Vec3;
 
 /// One end of a span.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,47 +51,160 @@ fn inside(op: CsgOp, a: bool, b: bool) -> bool {
     }
 }
 
+/// One boundary of the sweep: the boundary itself (with `B`'s normal already turned for
+/// `A − B`), which operand it belongs to, and whether crossing it can only move the composite
+/// towards "inside" (`opens`).
+#[derive(Clone, Copy)]
+struct Event {
+    bound: Boundary,
+    from_a: bool,
+    opens: bool,
+}
+
+/// Cursors over the boundary sequences of the two operands: index 2k is span k's entry, 2k + 1
+/// its exit.
+#[derive(Clone, Copy)]
+struct Sweep {
+    ia: usize,
+    ib: usize,
+}
+
+impl Sweep {
+    /// The next boundary in order of `t` (ties: `a` first), without consuming it.
+    fn peek(&self, op: CsgOp, a: &[Span], b: &[Span]) -> Option<Event> {
+        let at = |s: &[Span], i: usize| {
+            if i % 2 == 0 {
+                s[i / 2].enter
+            } else {
+                s[i / 2].exit
+            }
+        };
+        let (na, nb) = (2 * a.len(), 2 * b.len());
+        if self.ia >= na && self.ib >= nb {
+            return None;
+        }
+        let take_a = self.ib >= nb || (self.ia < na && at(a, self.ia).t <= at(b, self.ib).t);
+        Some(if take_a {
+            Event {
+                bound: at(a, self.ia),
+                from_a: true,
+                opens: self.ia % 2 == 0,
+            }
+        } else {
+            let mut bound = at(b, self.ib);
+            let enters = self.ib % 2 == 0;
+            if op == CsgOp::Subtract {
+                bound.flip = !bound.flip;
+            }
+            Event {
+                bound,
+                from_a: false,
+                opens: enters != (op == CsgOp::Subtract),
+            }
+        })
+    }
+
+    /// Consumes the boundary [`Sweep::peek`] returns.
+    fn advance(&mut self, e: &Event) {
+        if e.from_a {
+            self.ia += 1;
+        } else {
+            self.ib += 1;
+        }
+    }
+}
+
 /// Appends to `out` the spans of `op(a, b)`. Both inputs must be sorted and disjoint; so is the
 /// result.
-pub fn combine(op: CsgOp, a: &[Span], b: &[Span], out: &mut Vec<Span>) {
+///
+/// Boundaries that follow each other within their merge error bounds form a cluster, which is
+/// crossed as one: only the state before and after it counts, so touching operands leave neither
+/// slivers nor gaps. Where a cluster makes the composite begin or end, the boundary that names
+/// its surface is chosen by [`surface_of_cluster`], using `normal` (a boundary's outward normal
+/// as the composite sees it) to recognise the inner walls of shared faces.
+pub fn combine<N>(op: CsgOp, a: &[Span], b: &[Span], out: &mut Vec<Span>, mut normal: N)
+where
+    N: FnMut(&Boundary) -> Vec3,
+{
     let start = out.len();
-    // Cursors over the boundary sequences: index 2k is span k's entry, 2k + 1 its exit.
-    let (mut ia, mut ib) = (0usize, 0usize);
-    let (na, nb) = (2 * a.len(), 2 * b.len());
-    let at = |s: &[Span], i: usize| {
-        if i % 2 == 0 {
-            s[i / 2].enter
-        } else {
-            s[i / 2].exit
-        }
-    };
-    let (mut in_a, mut in_b) = (false, false);
+    let mut sweep = Sweep { ia: 0, ib: 0 };
     let mut open: Option<Boundary> = None;
-    while ia < na || ib < nb {
-        let take_a = ib >= nb || (ia < na && at(a, ia).t <= at(b, ib).t);
-        let mut bound = if take_a {
-            in_a = ia % 2 == 0;
-            ia += 1;
-            at(a, ia - 1)
-        } else {
-            in_b = ib % 2 == 0;
-            ib += 1;
-            at(b, ib - 1)
-        };
-        if !take_a && op == CsgOp::Subtract {
-            bound.flip = !bound.flip;
-        }
-        let now = inside(op, in_a, in_b);
-        match (open, now) {
-            (None, true) => open = Some(bound),
-            (Some(enter), false) => {
-                out.push(Span { enter, exit: bound });
-                open = None;
+    while let Some(first) = sweep.peek(op, a, b) {
+        let before = inside(op, sweep.ia % 2 == 1, sweep.ib % 2 == 1);
+        let cluster = sweep;
+        sweep.advance(&first);
+        let (mut last, mut count) = (first, 1);
+        while let Some(next) = sweep.peek(op, a, b) {
+            let link = 2.0 * last.bound.merge_error.min(next.bound.merge_error);
+            if !(next.bound.t - last.bound.t <= link) {
+                break;
             }
-            _ => {}
+            sweep.advance(&next);
+            (last, count) = (next, count + 1);
+        }
+        let after = inside(op, sweep.ia % 2 == 1, sweep.ib % 2 == 1);
+        if before == after {
+            continue;
+        }
+        let chosen = if count == 1 {
+            first.bound
+        } else {
+            surface_of_cluster(op, a, b, cluster, count, after, first.bound, &mut normal)
+        };
+        match open.take() {
+            None => open = Some(chosen),
+            Some(enter) => out.push(Span {
+                enter,
+                exit: chosen,
+            }),
         }
     }
     tidy(out, start);
+}
+
+/// The boundary that names the composite's surface where the `count` boundaries from `cluster`
+/// on make it begin (`opens`) or end: the first one that moves the composite that way and is not
+/// an inner wall. An inner wall is a face one operand shares with the other, crossed from one
+/// operand straight into the other: its normal is opposite to that of a boundary of the other
+/// operand in the cluster that moves the composite the other way (a ray through the edge of the
+/// shared face of two boxes' union crosses the top face, not the wall).
+fn surface_of_cluster<N>(
+    op: CsgOp,
+    a: &[Span],
+    b: &[Span],
+    cluster: Sweep,
+    count: usize,
+    opens: bool,
+    default: Boundary,
+    normal: &mut N,
+) -> Boundary
+where
+    N: FnMut(&Boundary) -> Vec3,
+{
+    let events = || {
+        let mut s = cluster;
+        (0..count).filter_map(move |_| {
+            let e = s.peek(op, a, b)?;
+            s.advance(&e);
+            Some(e)
+        })
+    };
+    let mut fallback = default;
+    for (i, c) in events().filter(|e| e.opens == opens).enumerate() {
+        if i == 0 {
+            fallback = c.bound;
+        }
+        let nc = normal(&c.bound);
+        let wall = events()
+            .filter(|w| w.from_a != c.from_a && w.opens != opens)
+            .any(|w| nc.dot(normal(&w.bound)) < -0.99);
+        if !wall {
+            return c.bound;
+        }
+    }
+    // Every candidate is a wall (only in clusters too degenerate to tell): the first one names
+    // a surface through this point as well as any.
+    fallback
 }
 
 /// Drops spans of `out[start..]` shorter than both their ends' merge error bounds and closes gaps
@@ -142,7 +256,7 @@ mod tests {
 
     fn run(op: CsgOp, a: &[Span], b: &[Span]) -> Vec<(f32, u32, bool, f32, u32, bool)> {
         let mut out = Vec::new();
-        combine(op, a, b, &mut out);
+        combine(op, a, b, &mut out, |_| Vec3::ZERO);
         out.iter()
             .map(|s| {
                 (
