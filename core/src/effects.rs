@@ -15,7 +15,8 @@ pub struct Effects {
     /// All lights.
     pub lights: u32,
     /// Mirror rays: reflections on, depth cap above 0, and some shader reflects at least the
-    /// cut-off.
+    /// cut-off; or refraction rays (total internal reflection sends the refracted share along
+    /// the mirror ray, whatever the reflection settings).
     pub reflection: bool,
     /// Refraction rays: refractions on, depth cap above 0, and some shader lets at least the
     /// cut-off through.
@@ -41,15 +42,17 @@ impl Effects {
             0
         };
         let any = |f: &dyn Fn(&Shader) -> bool| shaders.iter().any(f);
+        let refraction = s.refractions
+            && deeper
+            && any(&|sh| sh.transparency > 0.0 && sh.transparency >= cutoff);
         Effects {
             shadow_lights,
             lights: casts_shadows.len() as u32,
-            reflection: s.reflections
-                && deeper
-                && any(&|sh| sh.reflection > 0.0 && sh.reflection >= cutoff),
-            refraction: s.refractions
-                && deeper
-                && any(&|sh| sh.transparency > 0.0 && sh.transparency >= cutoff),
+            reflection: refraction
+                || s.reflections
+                    && deeper
+                    && any(&|sh| sh.reflection > 0.0 && sh.reflection >= cutoff),
+            refraction,
             multisampling: if s.samples > 1 { s.samples } else { 0 },
             adaptive: s.samples > 1 && s.aa_threshold >= 0.0,
             ambient_occlusion: if any(&|sh| sh.ambient != glam::Vec3::ZERO) {
@@ -124,6 +127,17 @@ mod tests {
         };
         let e = Effects::derive(&[matte, glass], &[true], &rich);
         assert_eq!(e.shadow_lights, 0);
+        // Glass under the cut-off for reflection still reflects totally inside.
+        let clear = Shader {
+            reflection: 0.0,
+            ..glass
+        };
+        let no_mirrors = RenderSettings {
+            reflections: false,
+            ..s
+        };
+        let tir = Effects::derive(&[clear], &[true], &no_mirrors);
+        assert!(tir.refraction && tir.reflection);
         assert!(e.reflection && e.refraction && e.highlights && e.adaptive);
         assert_eq!((e.multisampling, e.ambient_occlusion), (3, 2));
         assert_eq!(

@@ -205,7 +205,8 @@ pub struct Scene {
     pub triangle_normals: Vec<[Vec3; 3]>,
     /// Shader index of each triangle.
     pub triangle_shader: Vec<u32>,
-    /// Number of triangles with zero area (kept, but never hit).
+    /// Number of triangles with zero area, in the triangle list and in the meshes of CSG
+    /// solids (kept, but never hit).
     pub degenerate_triangles: u32,
     /// The analytic solids and CSG objects.
     pub solids: Solids,
@@ -278,6 +279,11 @@ impl Scene {
             })
             .collect();
 
+        degenerate += desc
+            .solid_triangles
+            .iter()
+            .filter(|p| unit_normal(p).is_none())
+            .count() as u32;
         let solids = Solids::new(&desc.solids, &desc.objects, &desc.solid_triangles);
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())

@@ -80,7 +80,7 @@ pub const MAX_WORKERS: u32 = 1024;
 /// Arguments of `strahl render`. As in FART, every option given beats the scene file; `-h` is
 /// the height, help is `--help`.
 #[derive(Debug, Args)]
-#[command(disable_help_flag = true)]
+#[command(disable_help_flag = true, allow_negative_numbers = true)]
 pub struct RenderArgs {
     /// The scene: a .fart file, an .nff file, or the seed's configuration file (raytracer.cfg),
     /// whose file names are relative to its folder.
@@ -349,8 +349,11 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
             loaded.data_path.display(),
             scene.degenerate_triangles,
-            scene.triangle_points.len()
+            scene.triangle_points.len() + scene.solids.mesh_triangle_count()
         ));
+    }
+    if args.aa_threshold.is_some() && settings.samples < 2 {
+        warn("--aa-threshold has no effect at multisample 1: give -m 2 or more to supersample the pixels it flags");
     }
     let mut workers = start_workers(&args.cluster, args.worker_count(), &prepared, &warn)?;
     let render_start = Instant::now();

@@ -254,11 +254,22 @@ fn usage_errors_exit_2() -> TestResult {
         &["--shadows", "yes"],
         &["--index-base", "2"],
         &["--width", "0"],
+        &["--width", "-5"],
+        &["--aa-threshold", "-0.1"],
+        &["--aa-threshold", "1.5"],
         &["--bogus"],
     ] {
         let out = render(dir.path(), args)?;
         assert_eq!(out.status.code(), Some(2), "{args:?}: {}", stderr(&out));
         assert!(!stderr(&out).is_empty());
+        // A negative number is read as the option's value, not as an unknown option `-0`.
+        if args.len() == 2 && args[1].starts_with('-') {
+            assert!(
+                stderr(&out).contains(&format!("invalid value '{}'", args[1])),
+                "{args:?}: {}",
+                stderr(&out)
+            );
+        }
     }
     let out = strahl(dir.path(), &["render"])?;
     assert_eq!(out.status.code(), Some(2));
@@ -294,6 +305,64 @@ fn quiet_prints_nothing() -> TestResult {
     assert!(out.stderr.is_empty(), "{}", stderr(&out));
     assert!(out.stdout.is_empty());
     assert!(dir.path().join("out.bmp").is_file());
+    Ok(())
+}
+
+#[test]
+fn glass_reports_reflection_and_a_useless_threshold_is_warned_about() -> TestResult {
+    // glass.fart's reflectance is under the cut-off, but total internal reflection still sends
+    // mirror rays: the effects line must name both. --aa-threshold at multisample 1 does nothing
+    // and says so.
+    let dir = tempfile::tempdir()?;
+    let glass = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/fart/glass.fart");
+    let glass = glass.display().to_string();
+    let out = strahl(
+        dir.path(),
+        &[
+            "render",
+            &glass,
+            "-o",
+            "g.bmp",
+            "-w",
+            "40",
+            "-h",
+            "30",
+            "-m",
+            "1",
+            "--aa-threshold",
+            "0.1",
+        ],
+    )?;
+    assert_success(&out);
+    let err = stderr(&out);
+    let effects = err
+        .lines()
+        .find(|l| l.starts_with("effects: "))
+        .unwrap_or_default();
+    assert!(effects.contains("reflection, refraction"), "{err}");
+    assert!(
+        err.contains("warning: --aa-threshold has no effect at multisample 1"),
+        "{err}"
+    );
+    let out = strahl(
+        dir.path(),
+        &[
+            "render",
+            &glass,
+            "-o",
+            "g.bmp",
+            "-w",
+            "40",
+            "-h",
+            "30",
+            "-m",
+            "2",
+            "--aa-threshold",
+            "0.1",
+        ],
+    )?;
+    assert_success(&out);
+    assert!(!stderr(&out).contains("warning"), "{}", stderr(&out));
     Ok(())
 }
 

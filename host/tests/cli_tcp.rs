@@ -688,6 +688,50 @@ fn three_tcp_workers_render_the_same_image_as_one_local_worker() -> TestResult {
 }
 
 #[test]
+fn tcp_workers_report_the_same_ray_counts_as_a_local_worker() -> TestResult {
+    // Ray counters travel in every line result: over TCP, with adaptive multisampling (both
+    // passes) and the render's skipping, the summary and --stats-json must count exactly the rays
+    // one in-process worker counts.
+    let (_a, a) = Proc::listening_worker("count-a")?;
+    let (_b, b) = Proc::listening_worker("count-b")?;
+    let dir = tempfile::tempdir()?;
+    let stats = |name: &str, extra: &[&str]| -> Result<serde_json::Value, Box<dyn Error>> {
+        let json = dir.path().join(format!("{name}.json"));
+        let out = dir.path().join(format!("{name}.bmp"));
+        let mut args = vec!["-m", "2", "--aa-threshold", "0.05", "-q", "--stats-json"];
+        let json_arg = json.display().to_string();
+        args.push(&json_arg);
+        args.extend_from_slice(extra);
+        render(SMALL, &out, &args)?.assert_success();
+        Ok(serde_json::from_str(&std::fs::read_to_string(&json)?)?)
+    };
+    let local = stats("local", &["--workers", "1"])?;
+    let tcp = stats("tcp", &["--workers", "0", "--worker", &a, "--worker", &b])?;
+    let rays = |s: &serde_json::Value, kind: &str| s["rays"][kind].as_u64();
+    for kind in [
+        "primary",
+        "extra_samples",
+        "shadow",
+        "reflection",
+        "refraction",
+        "occlusion",
+        "total",
+    ] {
+        assert_eq!(
+            rays(&tcp, kind),
+            rays(&local, kind),
+            "{kind}: {tcp:#} vs {local:#}"
+        );
+    }
+    let primary = u64::from(SMALL.width) * u64::from(SMALL.height);
+    assert_eq!(rays(&tcp, "primary"), Some(primary), "{tcp:#}");
+    for kind in ["extra_samples", "shadow", "reflection"] {
+        assert!(rays(&tcp, kind).is_some_and(|n| n > 0), "{kind}: {tcp:#}");
+    }
+    Ok(())
+}
+
+#[test]
 fn worker_killed_mid_render_is_reported_and_the_image_is_complete() -> TestResult {
     let (mut victim, v) = Proc::listening_worker("victim")?;
     let (_a, a) = Proc::listening_worker("survivor-a")?;

@@ -587,6 +587,18 @@ fn error_positions_and_messages() {
             "2:3: unknown keyword `lamp` at scene level; expected a shape, `light`, `camera`, `options`, `let`, `define`, `for`, `if` or `}` (a defined shape is used as `lamp { ... }`)",
         ),
         (
+            "scene {\n  sphere { radius 1e-50 }\n}",
+            "2:19: the radius 0.00000000000000000000000000000000000000000000000001 is too small: it rounds to 0 in single precision",
+        ),
+        (
+            "scene {\n  union { sphere { }\n    sphere { scale 1e-30 } }\n}",
+            "3:5: this shape's translations, rotations and scales together leave the range of single precision (a scale too small or too large, or a translation too far): its placement cannot be inverted",
+        ),
+        (
+            "scene {\n  mesh { vertices { <0,0,0> <1,0,0> <0,1,0> } triangles { <0,1,2> } scale 1e30 scale 1e30 }\n}",
+            "2:3: this shape's translations, rotations and scales together leave the range of single precision (a scale too small or too large, or a translation too far): its placement cannot be inverted",
+        ),
+        (
             "scene {\n  sphere { radius r }\n}",
             "2:19: undefined variable `r`; set it with `let r = ...` first",
         ),
@@ -736,6 +748,32 @@ fn error_positions_and_messages() {
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn degenerate_triangles_in_a_csg_mesh_are_counted_and_change_nothing() -> TestResult {
+    let body = |extra: &str| {
+        format!(
+            "  subtract {{\n    box {{ size 2 }}\n    mesh {{\n      vertices {{ <0, 1, 0> <-1, -1, -1> <1, -1, -1> <0, -1, 1> <0, -1, -1> }}\n      triangles {{ <0, 2, 1> <0, 3, 2> <0, 1, 3> <1, 2, 3> {extra} }}\n      translate <0, 0.5, 0>\n    }}\n  }}"
+        )
+    };
+    let clean = load_body(&body(""))?;
+    // Collinear (vertex 4 is halfway between 1 and 2), a repeated corner, one point thrice.
+    let dirty = load_body(&body("<1, 4, 2> <0, 0, 3> <3, 3, 3>"))?;
+    assert_eq!(dirty.solid_triangles.len(), 7);
+    let count = |d: &SceneDesc| -> Result<u32, String> {
+        Ok(Scene::build(d, &OctreeParams::default())
+            .map_err(|e| e.to_string())?
+            .degenerate_triangles)
+    };
+    assert_eq!(count(&clean)?, 0);
+    assert_eq!(
+        count(&dirty)?,
+        3,
+        "counted at load, like the scene's own triangles"
+    );
+    assert_eq!(render_small(&clean)?, render_small(&dirty)?);
+    Ok(())
 }
 
 #[test]

@@ -61,17 +61,25 @@ struct Event {
     opens: bool,
 }
 
-/// Cursors over the boundary sequences of the two operands: index 2k is span k's entry, 2k + 1
-/// its exit.
+/// The two operands' spans with cursors over their boundary sequences: index 2k is span k's
+/// entry, 2k + 1 its exit.
 #[derive(Clone, Copy)]
-struct Sweep {
+struct Sweep<'s> {
+    op: CsgOp,
+    a: &'s [Span],
+    b: &'s [Span],
     ia: usize,
     ib: usize,
 }
 
-impl Sweep {
+/// The cosine below which two unit normals count as opposite. The normals of coinciding faces
+/// agree up to rounding (about 1e-6); distinct faces meeting at an edge of a box are 90° apart.
+const OPPOSITE: f32 = -0.99;
+
+impl Sweep<'_> {
     /// The next boundary in order of `t` (ties: `a` first), without consuming it.
-    fn peek(&self, op: CsgOp, a: &[Span], b: &[Span]) -> Option<Event> {
+    fn peek(&self) -> Option<Event> {
+        let (op, a, b) = (self.op, self.a, self.b);
         let at = |s: &[Span], i: usize| {
             if i % 2 == 0 {
                 s[i / 2].enter
@@ -127,16 +135,24 @@ where
     N: FnMut(&Boundary) -> Vec3,
 {
     let start = out.len();
-    let mut sweep = Sweep { ia: 0, ib: 0 };
+    let mut sweep = Sweep {
+        op,
+        a,
+        b,
+        ia: 0,
+        ib: 0,
+    };
     let mut open: Option<Boundary> = None;
-    while let Some(first) = sweep.peek(op, a, b) {
+    while let Some(first) = sweep.peek() {
         let before = inside(op, sweep.ia % 2 == 1, sweep.ib % 2 == 1);
         let cluster = sweep;
         sweep.advance(&first);
         let (mut last, mut count) = (first, 1);
-        while let Some(next) = sweep.peek(op, a, b) {
+        while let Some(next) = sweep.peek() {
             let link = 2.0 * last.bound.merge_error.min(next.bound.merge_error);
-            if !(next.bound.t - last.bound.t <= link) {
+            // (False for NaN gaps too, between infinite ends.)
+            let linked = next.bound.t - last.bound.t <= link;
+            if !linked {
                 break;
             }
             sweep.advance(&next);
@@ -149,7 +165,7 @@ where
         let chosen = if count == 1 {
             first.bound
         } else {
-            surface_of_cluster(op, a, b, cluster, count, after, first.bound, &mut normal)
+            surface_of_cluster(cluster, count, after, first.bound, &mut normal)
         };
         match open.take() {
             None => open = Some(chosen),
@@ -163,19 +179,16 @@ where
 }
 
 /// The boundary that names the composite's surface where the `count` boundaries from `cluster`
-/// on make it begin (`opens`) or end: the first one that moves the composite that way and is not
+/// on (the first of them is `first`) make it begin (`opens`) or end: the first one that moves the composite that way and is not
 /// an inner wall. An inner wall is a face one operand shares with the other, crossed from one
 /// operand straight into the other: its normal is opposite to that of a boundary of the other
 /// operand in the cluster that moves the composite the other way (a ray through the edge of the
 /// shared face of two boxes' union crosses the top face, not the wall).
 fn surface_of_cluster<N>(
-    op: CsgOp,
-    a: &[Span],
-    b: &[Span],
-    cluster: Sweep,
+    cluster: Sweep<'_>,
     count: usize,
     opens: bool,
-    default: Boundary,
+    first: Boundary,
     normal: &mut N,
 ) -> Boundary
 where
@@ -184,27 +197,26 @@ where
     let events = || {
         let mut s = cluster;
         (0..count).filter_map(move |_| {
-            let e = s.peek(op, a, b)?;
+            let e = s.peek()?;
             s.advance(&e);
             Some(e)
         })
     };
-    let mut fallback = default;
-    for (i, c) in events().filter(|e| e.opens == opens).enumerate() {
-        if i == 0 {
-            fallback = c.bound;
-        }
+    let mut fallback = None;
+    for c in events().filter(|e| e.opens == opens) {
+        fallback.get_or_insert(c.bound);
         let nc = normal(&c.bound);
         let wall = events()
             .filter(|w| w.from_a != c.from_a && w.opens != opens)
-            .any(|w| nc.dot(normal(&w.bound)) < -0.99);
+            .any(|w| nc.dot(normal(&w.bound)) < OPPOSITE);
         if !wall {
             return c.bound;
         }
     }
     // Every candidate is a wall (only in clusters too degenerate to tell): the first one names
-    // a surface through this point as well as any.
-    fallback
+    // a surface through this point as well as any. (A cluster that begins or ends the composite
+    // has a candidate; the cluster's `first` boundary stands in otherwise.)
+    fallback.unwrap_or(first)
 }
 
 /// Drops spans of `out[start..]` shorter than both their ends' merge error bounds and closes gaps

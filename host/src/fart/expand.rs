@@ -287,6 +287,20 @@ fn f32_of(v: f64, pos: Pos) -> Res<f32> {
     }
 }
 
+/// Fails at `pos` unless the shape's whole placement is finite and invertible in single
+/// precision (each factor alone may be fine while their product is not).
+fn check_placement(pos: Pos, transform: &Transform) -> Res<()> {
+    if transform.is_valid() {
+        return Ok(());
+    }
+    err(
+        pos,
+        "this shape's translations, rotations and scales together leave the range of single \
+         precision (a scale too small or too large, or a translation too far): its placement \
+         cannot be inverted",
+    )
+}
+
 fn vec3_of(v: DVec3, pos: Pos) -> Res<Vec3> {
     Ok(Vec3::new(
         f32_of(v.x, pos)?,
@@ -986,7 +1000,17 @@ impl Expander {
                 ShapeItemKind::Transform(..) => {}
                 ShapeItemKind::Radius(e) => {
                     let r = self.num_item(e, "radius", "a positive number")?;
-                    if r <= 0.0 {
+                    let r32 = f32_of(r, e.pos)?;
+                    if r > 0.0 && r32 == 0.0 {
+                        return err(
+                            e.pos,
+                            format!(
+                                "the radius {} is too small: it rounds to 0 in single precision",
+                                show_num(r)
+                            ),
+                        );
+                    }
+                    if r32 <= 0.0 {
                         return err(
                             e.pos,
                             format!(
@@ -995,7 +1019,7 @@ impl Expander {
                             ),
                         );
                     }
-                    radius = Some(f32_of(r, e.pos)?);
+                    radius = Some(r32);
                 }
                 ShapeItemKind::Size(e) => {
                     let v = match (self.eval(e)?, &ast.kind) {
@@ -1344,6 +1368,7 @@ impl Expander {
                     format!("the scene places more than {MAX_TRIANGLES} mesh triangles"),
                 );
             }
+            check_placement(v.pos, &v.transform)?;
             let shader = self.shader_id(v.material.unwrap_or(DEFAULT_MATERIAL));
             append_mesh(&mut self.desc, mesh, &v.transform, shader);
             return Ok(());
@@ -1361,6 +1386,9 @@ impl Expander {
     ) -> Res<u32> {
         let transform = outer.after(&v.transform);
         let material = v.material.or(inherited);
+        if matches!(v.node, Node::Leaf(_) | Node::Mesh(_)) {
+            check_placement(v.pos, &transform)?;
+        }
         match &v.node {
             Node::Leaf(shape) => {
                 self.shapes += 1;
