@@ -249,10 +249,16 @@ fn in_face_plane(
     if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
         return false;
     }
-    let (x0, x1) = (o[a] + d[a] * lo, o[a] + d[a] * hi);
-    let error = position_error(o, d, lo).max(position_error(o, d, hi));
-    let on_face = |x: f32| (x.abs() - half[a]).abs() <= error;
-    on_face(x0) && on_face(x1) && (x0 < 0.0) == (x1 < 0.0)
+    // Within the point's rounding error of the face plane at both ends (the second end and its
+    // error are only computed when the first is, as almost every ray fails there).
+    let on_face = |t: f32| {
+        let x = o[a] + d[a] * t;
+        ((x.abs() - half[a]).abs() <= position_error(o, d, t)).then_some(x < 0.0)
+    };
+    match on_face(lo) {
+        Some(below) => on_face(hi) == Some(below),
+        None => false,
+    }
 }
 
 /// The span from `enter` to `exit`; a ray that only touches the shape, with `exit` before

@@ -78,6 +78,7 @@ const OPPOSITE: f32 = -0.99;
 
 impl Sweep<'_> {
     /// The next boundary in order of `t` (ties: `a` first), without consuming it.
+    #[inline(always)]
     fn peek(&self) -> Option<Event> {
         let (op, a, b) = (self.op, self.a, self.b);
         let at = |s: &[Span], i: usize| {
@@ -113,6 +114,7 @@ impl Sweep<'_> {
     }
 
     /// Consumes the boundary [`Sweep::peek`] returns.
+    #[inline]
     fn advance(&mut self, e: &Event) {
         if e.from_a {
             self.ia += 1;
@@ -143,20 +145,24 @@ where
         ib: 0,
     };
     let mut open: Option<Boundary> = None;
-    while let Some(first) = sweep.peek() {
+    // Each boundary is looked at once: `next` is the one after the cluster being gathered.
+    let mut next = sweep.peek();
+    while let Some(first) = next {
         let before = inside(op, sweep.ia % 2 == 1, sweep.ib % 2 == 1);
         let cluster = sweep;
         sweep.advance(&first);
         let (mut last, mut count) = (first, 1);
-        while let Some(next) = sweep.peek() {
-            let link = 2.0 * last.bound.merge_error.min(next.bound.merge_error);
+        next = sweep.peek();
+        while let Some(e) = next {
+            let link = 2.0 * last.bound.merge_error.min(e.bound.merge_error);
             // (False for NaN gaps too, between infinite ends.)
-            let linked = next.bound.t - last.bound.t <= link;
+            let linked = e.bound.t - last.bound.t <= link;
             if !linked {
                 break;
             }
-            sweep.advance(&next);
-            (last, count) = (next, count + 1);
+            sweep.advance(&e);
+            (last, count) = (e, count + 1);
+            next = sweep.peek();
         }
         let after = inside(op, sweep.ia % 2 == 1, sweep.ib % 2 == 1);
         if before == after {
