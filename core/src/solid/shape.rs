@@ -261,6 +261,18 @@ fn in_face_plane(
     }
 }
 
+/// The parameter of the point of the ray `o + t·d` nearest the object-space origin (0 if `d` is
+/// too short for its square to be finite and non-zero).
+#[inline]
+fn nearest_to_centre(o: Vec3, d: Vec3) -> f32 {
+    let s = -o.dot(d) / d.dot(d);
+    if s.is_finite() {
+        s
+    } else {
+        0.0
+    }
+}
+
 /// The span from `enter` to `exit`; a ray that only touches the shape, with `exit` before
 /// `enter` by less than their error bounds, gets a span of length zero at `enter` (so spans
 /// stay ordered), and one that passes farther away misses.
@@ -292,12 +304,18 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
             (b, a, 2, 1)
         }
     };
-    // Side: x² + z² = (r0 + k·(y + h/2))², inside where the left side is smaller.
+    // Side: x² + z² = (r0 + k·(y + h/2))², inside where the left side is smaller. It is solved
+    // for `t − s` from the ray's point nearest the centre, `m = o + s·d`, not from `o`: from a
+    // far origin, `b²` and `4ac` would be huge and nearly equal, and their difference would lose
+    // the roots to cancellation (off by far more than a crossing's error bound). From `m`, every
+    // coefficient has the size of the shape (the remedy the sphere's discriminant uses too).
+    let s = nearest_to_centre(o, d);
+    let m = o + d * s;
     let k = (r1 - r0) / h;
-    let r_o = r0 + k * (o.y + half);
+    let r_m = r0 + k * (m.y + half);
     let a = d.x * d.x + d.z * d.z - k * k * d.y * d.y;
-    let b = 2.0 * (o.x * d.x + o.z * d.z - k * r_o * d.y);
-    let c = o.x * o.x + o.z * o.z - r_o * r_o;
+    let b = 2.0 * (m.x * d.x + m.z * d.z - k * r_m * d.y);
+    let c = m.x * m.x + m.z * m.z - r_m * r_m;
     let disc = b * b - 4.0 * a * c;
     let (side_lo, side_hi) = if a == 0.0 {
         // Along a cone's generator (or the axis of a cylinder): linear.
@@ -307,12 +325,13 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
             }
             (f32::NEG_INFINITY, f32::INFINITY)
         } else if b > 0.0 {
-            (f32::NEG_INFINITY, -c / b)
+            (f32::NEG_INFINITY, s - c / b)
         } else {
-            (-c / b, f32::INFINITY)
+            (s - c / b, f32::INFINITY)
         }
     } else {
         let (t0, t1) = quadratic(a, b, disc, c)?;
+        let (t0, t1) = (s + t0, s + t1);
         if a > 0.0 {
             (t0, t1)
         } else {
@@ -404,11 +423,25 @@ pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face
             (q, (q.abs() + Vec3::splat(d.abs())) * gamma(8))
         }
         Shape::Cuboid { size } => {
+            let half = size * 0.5;
             let axis = (face / 2) as usize;
             let mut q = p;
-            q[axis] = if face % 2 == 1 { 0.5 } else { -0.5 } * size[axis];
+            q[axis] = if face % 2 == 1 {
+                half[axis]
+            } else {
+                -half[axis]
+            };
             let mut err = rough;
             err[axis] = 0.0;
+            // A ray within its rounding error of a face plane counts as inside that slab
+            // (`in_slab_parallel`, `in_face_plane`), and a ray that only touches an edge gets a
+            // span of length zero: either way the point may lie just beyond the face it names.
+            // It is pulled back onto the face, and the distance moved joins its error bound.
+            for b in (0..3).filter(|&b| b != axis) {
+                let inside = q[b].clamp(-half[b], half[b]);
+                err[b] += (q[b] - inside).abs();
+                q[b] = inside;
+            }
             (q, err)
         }
         Shape::Cylinder {
@@ -416,24 +449,41 @@ pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face
             top_radius,
             height,
         } => {
+            let half = 0.5 * height;
             let mut q = p;
+            let across = libm::sqrtf(p.x * p.x + p.z * p.z);
             if face != 0 {
-                // On a cap: exactly on its plane.
-                q.y = if face == 2 { 0.5 } else { -0.5 } * height;
+                // On a cap: exactly on its plane, and (like a box's face) pulled back onto the
+                // disc if a ray that counts as inside the caps' slab or only touches the rim
+                // put it just beyond, the distance moved joining the error bound.
+                q.y = if face == 2 { half } else { -half };
                 let mut err = rough;
                 err.y = 0.0;
+                let r = if face == 2 { top_radius } else { bottom_radius };
+                if across > r {
+                    q.x = p.x * (r / across);
+                    q.z = p.z * (r / across);
+                    err.x += (p.x - q.x).abs();
+                    err.z += (p.z - q.z).abs();
+                }
                 return (q, err);
             }
-            // On the side: moved across the axis onto the radius at its height.
+            // On the side: between the caps (pulled back like a cap's point), moved across the
+            // axis onto the radius at its height.
+            q.y = p.y.clamp(-half, half);
+            let moved = (p.y - q.y).abs();
             let k = (top_radius - bottom_radius) / height;
-            let r = (bottom_radius + k * (p.y + 0.5 * height)).max(0.0);
-            let across = libm::sqrtf(p.x * p.x + p.z * p.z);
+            let r = (bottom_radius + k * (q.y + half)).max(0.0);
             if across == 0.0 {
-                return (p, rough);
+                let mut err = rough;
+                err.y += moved;
+                return (q, err);
             }
             q.x = p.x * (r / across);
             q.z = p.z * (r / across);
-            (q, q.abs() * gamma(8))
+            let mut err = q.abs() * gamma(8);
+            err.y += moved;
+            (q, err)
         }
     }
 }
