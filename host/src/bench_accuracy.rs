@@ -3,21 +3,26 @@
 //! For each scene (the demo room of `scenes/room/raytracer.cfg` and up to two `scenes/fart/*.fart`
 //! by default, or the `--scene` files given) at a modest size, the command
 //!
-//! 1. renders a converged **reference**: multisample 8 (64 stratified samples per pixel),
-//!    reflection cut-off 0, depth cap 32, ambient occlusion at the scene's level. Pixels are the
-//!    renderer's 16-bit fixed point, the reference's too. Two knobs get their own reference:
-//!    ambient occlusion is compared with the same render at level 9, and the reflection knobs of
-//!    a scene with reflections off are swept with reflections on and compared with the reference
-//!    with reflections on;
+//! 1. renders a converged **reference**: multisample 16 (256 stratified samples per pixel, the
+//!    renderer's most), reflection cut-off 0, depth cap 32, ambient occlusion at the scene's
+//!    level. Pixels are the renderer's 16-bit fixed point, the reference's too. Two knobs get their
+//!    own reference: ambient occlusion is compared with the same render at level 9, and the
+//!    reflection knobs of a scene with reflections off are swept with reflections on and compared
+//!    with the reference with reflections on. Every reference is also rendered at half its samples
+//!    per side; the RMSE between the two is the reference's **residual**, an upper estimate of its
+//!    own error, and differences between settings that the residual could explain are reported
+//!    as not resolved;
 //! 2. sweeps each knob alone from the **baseline** (the scene's own settings at multisample 1):
 //!    multisample, adaptive threshold, reflection cut-off, depth cap, ambient-occlusion level,
-//!    octree depth and leaf size, and 8- against 16-bit pixels;
+//!    octree depth and leaf size, and 8- against 16-bit pixels (the protocol carries 16-bit pixels
+//!    only: the 8-bit row is simulated on the rendered pixels, and the bytes its line results
+//!    would take on the wire are computed with the protocol's own encoder);
 //! 3. times every setting (median of `--runs` renders with one in-process worker per CPU, scene
 //!    preparation not timed) and measures its error against the reference: RMSE and PSNR over
 //!    the colour channels in `[0, 1]`, and SSIM (11×11 Gaussian window, σ = 1.5) on luminance;
 //! 4. writes a Markdown report (`--out`, default `docs/accuracy.md`) with the table, an SVG plot
 //!    of error against time with the Pareto front (written next to it), and a paragraph per knob
-//!    generated from the measured numbers.
+//!    generated from the measured numbers, each ending with a conclusion drawn from them.
 //!
 //! Octree settings must not change a pixel: the command fails, naming the setting and the first
 //! pixel that differs, if one does.
@@ -31,9 +36,15 @@ use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use strahl_core::error::ProtocolError;
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
-use strahl_core::scene::{RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE};
+use strahl_core::protocol::frame::FrameWriter;
+use strahl_core::protocol::message::{encode_pixels, WorkerMessage};
+use strahl_core::protocol::PIXEL_WIRE_BYTES;
+use strahl_core::scene::{
+    RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
+};
 use strahl_core::shade::RayCounts;
 
 /// The demo room's configuration file, relative to the checkout's root.
@@ -47,13 +58,34 @@ pub const PREFERRED_FART_SCENES: [&str; 2] = ["mirrors.fart", "glass.fart"];
 /// The least wall time of one timed run: shorter renders repeat within the run, and the run's
 /// time is the mean per render.
 pub const MIN_RUN: Duration = Duration::from_millis(100);
-/// Samples per pixel side of the reference.
-pub const REFERENCE_SAMPLES: u32 = 8;
+/// Samples per pixel side of the main reference: the renderer's most ([`MAX_SAMPLES`]).
+///
+/// Chosen by measured cost. Multisample 8 was not converged: against multisample 16 its RMSE was
+/// about 0.0009, as large as the differences between multisample 5, 6 and 7. There is no render
+/// at twice the samples per side of multisample 16 to measure its residual against (the renderer
+/// stops at 16), so the reference is multisample 16 and its residual is measured against
+/// multisample 8 ([`residual_probe_samples`]), which bounds it from above. Multisample 16 costs
+/// about four times multisample 8 (glass.fart at 240×180 on 2 CPUs: 2.8 s against 14.8 s): in the
+/// run that wrote `docs/accuracy.md` (282 s) the three scenes' main references took 20 s at
+/// multisample 8, so multisample 16 adds about a minute, and the residual renders (a quarter of
+/// each reference, the ambient-occlusion ones included) about 45 s more: acceptable.
+pub const REFERENCE_SAMPLES: u32 = MAX_SAMPLES;
 /// Depth cap of the reference.
 pub const REFERENCE_DEPTH: u32 = 32;
 /// Samples per pixel side of the ambient-occlusion reference (level 9): 16 × 81 = 1,296
-/// occlusion rays per pixel; multisample 8 would take four times as long.
+/// occlusion rays per pixel; multisample 8 would take four times as long. Its residual is
+/// measured like the main reference's, against half the samples per side.
 pub const OCCLUSION_REFERENCE_SAMPLES: u32 = 4;
+
+/// Samples per pixel side of the render a reference's residual is measured against: half the
+/// reference's (at least 1).
+pub const fn residual_probe_samples(samples: u32) -> u32 {
+    if samples > 1 {
+        samples / 2
+    } else {
+        1
+    }
+}
 
 /// An image size given as `WxH`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -264,6 +296,145 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Bytes on the wire
+// ---------------------------------------------------------------------------------------------
+
+/// Bytes per pixel of an 8-bit wire: one byte per channel (the protocol's pixels are
+/// [`PIXEL_WIRE_BYTES`], three little-endian `u16`).
+pub const PIXEL_WIRE_BYTES_8: usize = 3;
+
+/// Bits on a serial line per byte: 8N1 (start bit, 8 data bits, stop bit).
+pub const SERIAL_BITS_PER_BYTE: u32 = 10;
+
+/// The bytes one image's line results take on the wire, framed as the protocol sends them
+/// (postcard payload, CRC-32, COBS, both `0x00` delimiters), with 16-bit pixels as the protocol
+/// carries them and with 8-bit ones as an 8-bit wire would.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WireBytes {
+    /// Pixels per line.
+    pub width: u32,
+    /// Lines (one `LineResult` each; an adaptive render sends a second one per refined line).
+    pub lines: u32,
+    /// Every line result with 16-bit pixels ([`PIXEL_WIRE_BYTES`] each).
+    pub image16: usize,
+    /// Every line result with 8-bit pixels ([`PIXEL_WIRE_BYTES_8`] each, in the same field).
+    pub image8: usize,
+}
+
+impl WireBytes {
+    /// Mean framed bytes of one line result.
+    pub fn per_line(&self, eight_bit: bool) -> f64 {
+        let total = if eight_bit { self.image8 } else { self.image16 };
+        total as f64 / f64::from(self.lines.max(1))
+    }
+
+    /// The pixel bytes alone of one line.
+    pub fn pixel_bytes(&self, eight_bit: bool) -> usize {
+        self.width as usize
+            * if eight_bit {
+                PIXEL_WIRE_BYTES_8
+            } else {
+                PIXEL_WIRE_BYTES
+            }
+    }
+
+    /// The share of the image's bytes an 8-bit wire would save.
+    pub fn saving(&self) -> f64 {
+        if self.image16 == 0 {
+            0.0
+        } else {
+            1.0 - self.image8 as f64 / self.image16 as f64
+        }
+    }
+}
+
+/// Seconds `bytes` take on a serial line at `baud`, 8N1.
+pub fn serial_seconds(bytes: usize, baud: u32) -> f64 {
+    bytes as f64 * f64::from(SERIAL_BITS_PER_BYTE) / f64::from(baud.max(1))
+}
+
+/// The framed `LineResult` of line `line` of job `job` carrying `pixels` as the protocol encodes
+/// them ([`encode_pixels`], 16 bits per channel) or, with `eight_bit`, as 8-bit channels in the
+/// same field (a message the protocol does not define: decoders reject it; only its length
+/// matters). Returns the frame's bytes, delimiters included.
+///
+/// # Errors
+/// [`ProtocolError::Encode`] if postcard cannot encode the message.
+pub fn line_result_frame(
+    writer: &mut FrameWriter,
+    job: u32,
+    line: u32,
+    rays: RayCounts,
+    pixels: &[Pixel],
+    eight_bit: bool,
+) -> Result<Vec<u8>, ProtocolError> {
+    let bytes: Vec<u8> = if eight_bit {
+        pixels.iter().flat_map(|p| p.to_rgb8()).collect()
+    } else {
+        let mut wire = vec![0u8; pixels.len() * PIXEL_WIRE_BYTES];
+        encode_pixels(pixels, &mut wire)?;
+        wire
+    };
+    let frame = writer.encode(&WorkerMessage::LineResult {
+        job,
+        line,
+        refined: false,
+        rays,
+        pixels: &bytes,
+    })?;
+    Ok(frame.to_vec())
+}
+
+/// The line results of an image (`pixels`, row-major, `width` per line) that took `rays`, one
+/// per line, with 16- and with 8-bit pixels. Each line carries the image's mean rays per line
+/// (a ray count takes one to a few bytes). Job 1 (job numbers take one byte up to 127).
+///
+/// # Errors
+/// [`ProtocolError::Encode`] if a message cannot be encoded.
+pub fn wire_bytes(
+    pixels: &[Pixel],
+    width: u32,
+    rays: RayCounts,
+) -> Result<WireBytes, ProtocolError> {
+    let w = width.max(1) as usize;
+    let lines = (pixels.len() / w) as u32;
+    let n = u64::from(lines.max(1));
+    let per_line = RayCounts {
+        primary: rays.primary / n,
+        extra_samples: rays.extra_samples / n,
+        shadow: rays.shadow / n,
+        reflection: rays.reflection / n,
+        refraction: rays.refraction / n,
+        occlusion: rays.occlusion / n,
+    };
+    let mut writer = FrameWriter::new();
+    let (mut image16, mut image8) = (0, 0);
+    for (y, line) in pixels.chunks_exact(w).enumerate() {
+        image16 += line_result_frame(&mut writer, 1, y as u32, per_line, line, false)?.len();
+        image8 += line_result_frame(&mut writer, 1, y as u32, per_line, line, true)?.len();
+    }
+    Ok(WireBytes {
+        width,
+        lines,
+        image16,
+        image8,
+    })
+}
+
+/// Bytes with thousands separated by a thin space (`1 234 567`).
+fn fmt_bytes(n: usize) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            out.push('\u{2009}');
+        }
+        out.push(c);
+    }
+    out
+}
+
+// ---------------------------------------------------------------------------------------------
 // The sweep
 // ---------------------------------------------------------------------------------------------
 
@@ -400,6 +571,22 @@ struct Row {
     errors: Errors,
 }
 
+/// A reference as rendered, with its residual.
+struct Reference {
+    /// The comparisons it serves (several when they share its settings).
+    kinds: Vec<RefKind>,
+    settings: RenderSettings,
+    /// Render time (one run).
+    time: Duration,
+    rays: RayCounts,
+    /// Samples per pixel side of the residual render ([`residual_probe_samples`]).
+    probe_samples: u32,
+    /// Its render time (one run).
+    probe_time: Duration,
+    /// The residual render's error against the reference: its RMSE is the reference's residual.
+    residual: Errors,
+}
+
 /// A scene as measured.
 struct SceneRun {
     name: String,
@@ -407,15 +594,31 @@ struct SceneRun {
     solids: usize,
     baseline: RenderSettings,
     baseline_time: Duration,
-    /// The references: kind, settings, render time (one run), rays.
-    references: Vec<(RefKind, RenderSettings, Duration, RayCounts)>,
+    /// The distinct references.
+    references: Vec<Reference>,
     reflections_forced: bool,
     measured: Vec<Measured>,
     /// Error of 8-bit against 16-bit pixels of the baseline render.
     quantization: Errors,
+    /// The baseline image's line results on the wire.
+    wire: WireBytes,
 }
 
 impl SceneRun {
+    /// The residual (RMSE) of the reference that `kind` compares with; 0 for the baseline.
+    fn residual(&self, kind: RefKind) -> f64 {
+        self.residual_errors(kind).map_or(0.0, |e| e.rmse)
+    }
+
+    /// The residual render's errors against the reference that `kind` compares with; `None`
+    /// for the baseline (compared exactly).
+    fn residual_errors(&self, kind: RefKind) -> Option<Errors> {
+        self.references
+            .iter()
+            .find(|r| r.kinds.contains(&kind))
+            .map(|r| r.residual)
+    }
+
     /// The largest relative spread of median times among settings that do the same work (default
     /// octree, identical image, identical ray counts): `(max / min − 1, how many settings)`.
     fn noise(&self) -> Option<(f64, usize)> {
@@ -1093,6 +1296,686 @@ pub fn svg(panels: &[PlotPanel]) -> String {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Conclusions
+// ---------------------------------------------------------------------------------------------
+
+/// One setting of a knob as the conclusions see it.
+#[derive(Clone, Debug, PartialEq)]
+struct Point {
+    /// The setting as the text names it (`4`, `10 %`, `0.1`).
+    label: String,
+    /// Its value (samples per side, threshold, cut-off, depth cap, level, bits).
+    num: f64,
+    /// Median time against the baseline's.
+    ratio: f64,
+    /// Rays of one render.
+    rays: u64,
+    rmse: f64,
+    ssim: f64,
+}
+
+/// The settings of one comparison, and what tells them apart.
+struct Sweep {
+    points: Vec<Point>,
+    /// `dist[i][j]`: RMSE between the images of points `i` and `j`.
+    dist: Vec<Vec<f64>>,
+    /// The residual of the reference they are compared with.
+    residual: f64,
+    /// `1 −` the residual render's SSIM against that reference: SSIM differences up to this
+    /// are not taken as resolved.
+    ssim_tol: f64,
+}
+
+impl Sweep {
+    /// Whether the reference tells which of points `i` and `j` is closer to the truth. With the
+    /// reference `F = T + ε`, `‖A − T‖² − ‖B − T‖² = ‖A − F‖² − ‖B − F‖² + 2⟨A − B, ε⟩` and
+    /// `|⟨A − B, ε⟩| ≤ d·‖ε‖` (Cauchy–Schwarz, all per channel), so the measured squared RMSEs
+    /// give the true order when they differ by more than `2·d·residual`, `d` being the RMSE
+    /// between the two images and the residual the bound on `‖ε‖`. Identical images are never
+    /// told apart.
+    fn resolved(&self, i: usize, j: usize) -> bool {
+        let (a, b) = (self.points[i].rmse, self.points[j].rmse);
+        (a * a - b * b).abs() > 2.0 * self.dist[i][j] * self.residual
+    }
+
+    /// Whether point `i` is closer to the truth than `j` by a margin the reference resolves.
+    fn beats(&self, i: usize, j: usize) -> bool {
+        self.points[i].rmse < self.points[j].rmse && self.resolved(i, j)
+    }
+
+    /// Of `among`, the cheapest (fewest rays; of equal rays the first) that none of `among`
+    /// beats.
+    fn cheapest_unbeaten(&self, among: &[usize]) -> Option<usize> {
+        among
+            .iter()
+            .copied()
+            .filter(|&i| !among.iter().any(|&j| self.beats(j, i)))
+            .min_by_key(|&i| (self.points[i].rays, i))
+    }
+
+    /// The first position in `order` (not the last) from which no two of the points that follow
+    /// are told apart; `None` if even the last two are.
+    fn settled_from(&self, order: &[usize]) -> Option<usize> {
+        let mut found = None;
+        for start in (0..order.len().saturating_sub(1)).rev() {
+            let a = order[start];
+            if order[start + 1..].iter().any(|&b| self.resolved(a, b)) {
+                break;
+            }
+            found = Some(start);
+        }
+        found
+    }
+}
+
+/// `part` of `whole` as a whole percentage (`0` for an empty whole).
+fn share(part: f64, whole: f64) -> f64 {
+    if whole > 0.0 {
+        100.0 * part / whole
+    } else {
+        0.0
+    }
+}
+
+/// `more` rays against `base` rays: `12 % more rays`, `3 % fewer rays`, `the same rays`.
+fn rays_change(base: u64, more: u64) -> String {
+    if base == more || base == 0 {
+        return "the same rays".to_string();
+    }
+    let d = share(more as f64 - base as f64, base as f64);
+    if d >= 0.0 {
+        format!("{:.0} % more rays", d.max(1.0))
+    } else {
+        format!("{:.0} % fewer rays", (-d).max(1.0))
+    }
+}
+
+/// The multisample paragraph's resolution sentence and conclusion; `p` in increasing samples,
+/// the first multisample 1. `other` names the baseline's other differences from the reference
+/// (cut-off, depth cap) when they can matter.
+fn multisample_conclusion(sw: &Sweep, other: Option<&str>) -> String {
+    let p = &sw.points;
+    let n = p.len();
+    if n < 2 {
+        return String::new();
+    }
+    let mut s = String::new();
+    let unresolved: Vec<String> = (0..n - 1)
+        .filter(|&i| !sw.resolved(i, i + 1))
+        .map(|i| format!("{} → {}", p[i].label, p[i + 1].label))
+        .collect();
+    let _ = write!(
+        s,
+        " The reference's residual is {} (RMSE); a step is resolved only when the residual \
+         cannot explain the change of RMSE.",
+        sig3(sw.residual)
+    );
+    if unresolved.is_empty() {
+        let _ = write!(s, " Every step here is resolved.");
+    } else {
+        let _ = write!(
+            s,
+            " Not resolved: multisample {}.",
+            join_values(&unresolved)
+        );
+    }
+    let order: Vec<usize> = (0..n).collect();
+    let settled = sw.settled_from(&order);
+    let last = n - 1;
+    if settled == Some(0) {
+        let _ = write!(
+            s,
+            " Conclusion: this reference cannot tell multisample {} from {} (RMSE {} against {}): \
+             more samples buy nothing measurable here, so multisample {} is enough.",
+            p[0].label,
+            p[last].label,
+            sig3(p[0].rmse),
+            sig3(p[last].rmse),
+            p[0].label
+        );
+        return s;
+    }
+    if let Some(i) = settled {
+        let _ = write!(
+            s,
+            " From multisample {} on (RMSE {} to {}) no two settings are told apart: whether more \
+             than {} samples per side help is below what this reference resolves.",
+            p[i].label,
+            sig3(p[i..].iter().map(|q| q.rmse).fold(0.0, f64::max)),
+            sig3(p[i..].iter().map(|q| q.rmse).fold(f64::INFINITY, f64::min)),
+            p[i].label
+        );
+    }
+    let drop = p[0].rmse - p[last].rmse;
+    if drop <= 0.0 {
+        let _ = write!(
+            s,
+            " Conclusion: more samples did not lower the RMSE here; multisample {} is enough.",
+            p[0].label
+        );
+        return s;
+    }
+    let knee = (1..n)
+        .find(|&i| p[0].rmse - p[i].rmse >= 0.9 * drop)
+        .unwrap_or(last);
+    let pick = settled.map_or(knee, |i| knee.min(i.max(1)));
+    if pick == last {
+        let _ = write!(
+            s,
+            " Conclusion: pick multisample {} (the most measured, {} the baseline time) when \
+             quality matters: every step up to it lowers the RMSE by a margin the reference \
+             resolves, and the last step, from multisample {}, still removes {:.0} % of the \
+             whole reduction from multisample {}.",
+            p[last].label,
+            fmt_ratio(p[last].ratio),
+            p[last - 1].label,
+            share(p[last - 1].rmse - p[last].rmse, drop).max(0.0),
+            p[0].label
+        );
+    } else {
+        let _ = write!(
+            s,
+            " Conclusion: pick multisample {} when quality matters: it buys {:.0} % of the RMSE \
+             reduction that multisample {} buys at {} the baseline time; the rest costs {} as \
+             much time again ({} the baseline time){}.",
+            p[pick].label,
+            share(p[0].rmse - p[pick].rmse, drop),
+            p[last].label,
+            fmt_ratio(p[pick].ratio),
+            fmt_ratio(p[last].ratio / p[pick].ratio.max(1e-12)),
+            fmt_ratio(p[last].ratio),
+            if settled.is_some_and(|i| i <= pick) {
+                " and is not resolved by this reference"
+            } else {
+                ""
+            }
+        );
+    }
+    if p[last].rmse > 2.0 * sw.residual {
+        match other {
+            Some(o) => {
+                let _ = write!(
+                    s,
+                    " What is left at multisample {} (RMSE {}) is more than the reference's \
+                     residual explains (more than twice it); the baseline also differs from the reference in {o}, \
+                     and more samples cannot remove that part.",
+                    p[last].label,
+                    sig3(p[last].rmse)
+                );
+            }
+            None => {
+                let _ = write!(
+                    s,
+                    " Multisample {} is still more than twice the reference's residual from it \
+                     (RMSE {}): more samples would still help.",
+                    p[last].label,
+                    sig3(p[last].rmse)
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The adaptive paragraph's conclusion: point 0 is full multisample 4, `thresholds` the
+/// adaptive points, `multisample` the plain multisample points.
+fn adaptive_conclusion(
+    sw: &Sweep,
+    thresholds: std::ops::Range<usize>,
+    multisample: std::ops::Range<usize>,
+) -> String {
+    let p = &sw.points;
+    let Some(full) = p.first() else {
+        return String::new();
+    };
+    let matching: Vec<usize> = thresholds
+        .clone()
+        .filter(|&i| p[i].rmse <= full.rmse * 1.1 || !sw.beats(0, i))
+        .collect();
+    let pct = |i: usize| share(p[i].ratio, full.ratio);
+    let close = matching
+        .iter()
+        .copied()
+        .min_by(|&a, &b| p[a].ratio.total_cmp(&p[b].ratio).then(a.cmp(&b)));
+    let mut s = String::new();
+    match close {
+        Some(c) => {
+            let _ = write!(
+                s,
+                " Conclusion: use threshold {} rather than full multisampling: its RMSE ({}) is \
+                 {} full multisample 4's ({}) at {:.0} % of its time.",
+                p[c].label,
+                sig3(p[c].rmse),
+                if sw.beats(0, c) {
+                    "within 10 % of"
+                } else {
+                    "not told apart from"
+                },
+                sig3(full.rmse),
+                pct(c)
+            );
+            let same_time = multisample
+                .filter(|&m| p[m].ratio <= p[c].ratio * 1.05)
+                .max_by(|&a, &b| p[a].ratio.total_cmp(&p[b].ratio));
+            if let Some(m) = same_time.filter(|&m| sw.beats(c, m)) {
+                let _ = write!(
+                    s,
+                    " In that time plain multisampling gets no further than multisample {} ({}, \
+                     RMSE {}).",
+                    p[m].label,
+                    fmt_ratio(p[m].ratio),
+                    sig3(p[m].rmse)
+                );
+            }
+        }
+        None => {
+            let best = thresholds.min_by(|&a, &b| p[a].rmse.total_cmp(&p[b].rmse));
+            if let Some(b) = best {
+                let _ = write!(
+                    s,
+                    " Conclusion: no threshold matched full multisample 4 here (RMSE {}); the \
+                     closest, {}, has RMSE {} at {:.0} % of its time. A refined pixel is exactly \
+                     full multisample 4's, so the difference lies in pixels whose centre matched \
+                     its neighbours' and kept one ray: where that matters, use full \
+                     multisampling or a lower threshold.",
+                    sig3(full.rmse),
+                    p[b].label,
+                    sig3(p[b].rmse),
+                    pct(b)
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The reflection cut-off's conclusion: `own` is the scene's own cut-off's point, `aliasing`
+/// the RMSE that multisample 2 removes from the baseline (when measured).
+fn cutoff_conclusion(sw: &Sweep, own: Option<usize>, aliasing: Option<f64>, same: bool) -> String {
+    let p = &sw.points;
+    let all: Vec<usize> = (0..p.len()).collect();
+    let Some(pick) = sw.cheapest_unbeaten(&all) else {
+        return String::new();
+    };
+    let own_label = own.map_or_else(String::new, |o| p[o].label.clone());
+    if same {
+        let most = all
+            .iter()
+            .copied()
+            .max_by_key(|&i| p[i].rays)
+            .unwrap_or(pick);
+        return format!(
+            " Conclusion: keep the scene's {own_label}: lower cut-offs buy nothing here{}.",
+            if p[most].rays > p[pick].rays {
+                format!(
+                    ", and cut-off {} traces {} for the same pixels",
+                    p[most].label,
+                    rays_change(p[pick].rays, p[most].rays)
+                )
+            } else {
+                String::new()
+            }
+        );
+    }
+    let mut s = format!(
+        " Conclusion: for accuracy, pick cut-off {}, the cheapest setting that no other beats \
+         by a margin the reference resolves (RMSE {}).",
+        p[pick].label,
+        sig3(p[pick].rmse)
+    );
+    if let Some(o) = own {
+        if o == pick {
+            s.push_str(" That is the scene's own.");
+        } else if sw.beats(pick, o) {
+            let gain = p[o].rmse - p[pick].rmse;
+            let _ = write!(
+                s,
+                " The scene's {} falls short: {} lowers RMSE from {} to {} for {} ({} the \
+                 baseline time against {}).",
+                p[o].label,
+                p[pick].label,
+                sig3(p[o].rmse),
+                sig3(p[pick].rmse),
+                rays_change(p[o].rays, p[pick].rays),
+                fmt_ratio(p[pick].ratio),
+                fmt_ratio(p[o].ratio)
+            );
+            if let Some(a) = aliasing.filter(|&a| a > gain) {
+                let _ = write!(
+                    s,
+                    " That gain is {:.0} times smaller than what multisample 2 removes ({}); but \
+                     the cut-off's error is a bias that multisampling does not remove, so it \
+                     matters most in multisampled images.",
+                    a / gain.max(1e-12),
+                    sig3(a)
+                );
+            }
+        } else {
+            let _ = write!(
+                s,
+                " The scene's {} is as good by what the reference resolves, with {}.",
+                p[o].label,
+                rays_change(p[pick].rays, p[o].rays)
+            );
+        }
+    }
+    s
+}
+
+/// The depth cap's conclusion; `p` in increasing caps, `own` the scene's cap's point.
+fn depth_conclusion(sw: &Sweep, own: Option<usize>, same: bool) -> String {
+    let p = &sw.points;
+    let all: Vec<usize> = (0..p.len()).collect();
+    let Some(pick) = sw.cheapest_unbeaten(&all) else {
+        return String::new();
+    };
+    if same {
+        return format!(
+            " Conclusion: no path here needs more than {} bounce{} (every cap gave the same \
+             image), so the cap buys nothing; any value will do.",
+            p[0].label,
+            if p[0].num == 1.0 { "" } else { "s" }
+        );
+    }
+    let mut s = format!(
+        " Conclusion: a depth cap of {} is enough: no deeper cap beats it by a margin the \
+         reference resolves (RMSE {}).",
+        p[pick].label,
+        sig3(p[pick].rmse)
+    );
+    if let Some(o) = own {
+        if o == pick {
+            s.push_str(" That is the scene's own.");
+        } else if sw.beats(pick, o) {
+            let _ = write!(
+                s,
+                " The scene's own cap, {}, is too low: RMSE {} against {}.",
+                p[o].label,
+                sig3(p[o].rmse),
+                sig3(p[pick].rmse)
+            );
+        } else {
+            let _ = write!(
+                s,
+                " The scene's own cap, {}, is more than enough ({}).",
+                p[o].label,
+                rays_change(p[pick].rays, p[o].rays)
+            );
+        }
+    }
+    if pick > 0 && sw.beats(pick, 0) {
+        let _ = write!(
+            s,
+            " Lower caps cut paths short: cap {} has RMSE {} (SSIM {}) for {}.",
+            p[0].label,
+            sig3(p[0].rmse),
+            fmt_ssim(p[0].ssim),
+            rays_change(p[pick].rays, p[0].rays)
+        );
+    }
+    s
+}
+
+/// The ambient-occlusion conclusion: the points' `num` is the level (0 is off); `own` is the
+/// scene's level; `reference` names what they are compared with.
+fn occlusion_conclusion(sw: &Sweep, own: u32, reference: &str) -> String {
+    let p = &sw.points;
+    let Some(off) = p.iter().position(|q| q.num == 0.0) else {
+        return String::new();
+    };
+    let levels: Vec<usize> = (0..p.len()).filter(|&i| i != off).collect();
+    let worse_ssim = |i: usize| p[i].ssim < p[off].ssim - sw.ssim_tol;
+    let worse: Vec<usize> = levels
+        .iter()
+        .copied()
+        .filter(|&i| worse_ssim(i) || sw.beats(off, i))
+        .collect();
+    let mut s = String::new();
+    if !worse.is_empty() {
+        let items: Vec<String> = worse
+            .iter()
+            .map(|&i| {
+                if p[i].rmse >= p[off].rmse {
+                    format!(
+                        "level {} (SSIM {} against {}, RMSE {} against {})",
+                        p[i].label,
+                        fmt_ssim(p[i].ssim),
+                        fmt_ssim(p[off].ssim),
+                        sig3(p[i].rmse),
+                        sig3(p[off].rmse)
+                    )
+                } else {
+                    format!(
+                        "level {} in SSIM ({} against {}), though its RMSE is lower ({} against \
+                         {})",
+                        p[i].label,
+                        fmt_ssim(p[i].ssim),
+                        fmt_ssim(p[off].ssim),
+                        sig3(p[i].rmse),
+                        sig3(p[off].rmse)
+                    )
+                }
+            })
+            .collect();
+        let rays: Vec<String> = worse
+            .iter()
+            .map(|&i| {
+                let n = (p[i].num * p[i].num) as u32;
+                format!(
+                    "{n} ray{} at level {}",
+                    if n == 1 { "" } else { "s" },
+                    p[i].label
+                )
+            })
+            .collect();
+        let _ = write!(
+            s,
+            " Worse than off: {}. With so few occlusion rays per shaded point ({}) the share that \
+             escapes is coarse{}, so the ambient term turns into noise from pixel to pixel; at \
+             multisample 1 nothing averages it, and the {reference} it is compared with is \
+             smooth. That noise costs more than the occlusion it adds, and SSIM, which weighs \
+             local structure, shows it most.",
+            items.join("; "),
+            join_values(&rays),
+            if worse.iter().any(|&i| p[i].num == 1.0) {
+                " (with one ray, 0 or 1)"
+            } else {
+                ""
+            }
+        );
+    }
+    let beats_off: Vec<usize> = levels
+        .iter()
+        .copied()
+        .filter(|&i| sw.beats(i, off) && !worse_ssim(i))
+        .collect();
+    let unresolved: Vec<usize> = levels
+        .iter()
+        .copied()
+        .filter(|&i| p[i].rmse < p[off].rmse && p[i].ssim > p[off].ssim && !sw.beats(i, off))
+        .collect();
+    if !unresolved.is_empty() {
+        let labels: Vec<String> = unresolved.iter().map(|&i| p[i].label.clone()).collect();
+        let _ = write!(
+            s,
+            " Level{} {} score{} better than off in both RMSE and SSIM, but by less than that \
+             reference resolves (its residual is {}): a sharper reference would be needed to \
+             tell.",
+            if unresolved.len() == 1 { "" } else { "s" },
+            join_values(&labels),
+            if unresolved.len() == 1 { "s" } else { "" },
+            sig3(sw.residual)
+        );
+    }
+    let candidates: Vec<usize> = (0..p.len()).filter(|i| !worse.contains(i)).collect();
+    let pick = sw.cheapest_unbeaten(&candidates).unwrap_or(off);
+    if pick == off {
+        let _ = write!(
+            s,
+            " Conclusion: at multisample 1 no level measured here beats leaving occlusion off by \
+             a margin the reference resolves{}: leave it off, or pair it with multisampling, which \
+             averages the occlusion rays of a pixel's samples (not measured here).",
+            if beats_off.is_empty() {
+                String::new()
+            } else {
+                " on both RMSE and SSIM".to_string()
+            }
+        );
+    } else {
+        let _ = write!(
+            s,
+            " Conclusion: pick level {} ({} the baseline time): the cheapest level that scores no \
+             worse than off and that no other level beats by a margin the reference resolves \
+             (RMSE {}, SSIM {}, against off's {} and {}).",
+            p[pick].label,
+            fmt_ratio(p[pick].ratio),
+            sig3(p[pick].rmse),
+            fmt_ssim(p[pick].ssim),
+            sig3(p[off].rmse),
+            fmt_ssim(p[off].ssim)
+        );
+        if let Some(&first) = beats_off.first().filter(|&&f| f != pick) {
+            let _ = write!(
+                s,
+                " Level {} is the first to beat off on both RMSE and SSIM.",
+                p[first].label
+            );
+        }
+    }
+    if own > 0 {
+        if let Some(o) = p.iter().position(|q| q.num == f64::from(own)) {
+            if o != pick {
+                let _ = write!(
+                    s,
+                    " The scene's own level {} {}.",
+                    p[o].label,
+                    if sw.beats(pick, o) || worse.contains(&o) {
+                        "does worse".to_string()
+                    } else {
+                        format!(
+                            "is as good by what the reference resolves, at {}",
+                            fmt_ratio(p[o].ratio)
+                        )
+                    }
+                );
+            }
+        }
+    }
+    s
+}
+
+/// The octree's conclusion: `times` are `(label, time against the default octree's)`, `noise`
+/// the run's timing noise (a fraction).
+fn octree_conclusion(times: &[(String, f64)], noise: Option<f64>) -> String {
+    let Some((fast, f)) = times.iter().min_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return String::new();
+    };
+    let Some((slow, sl)) = times.iter().max_by(|a, b| a.1.total_cmp(&b.1)) else {
+        return String::new();
+    };
+    let noise_text = noise.map_or_else(
+        || "this run has no estimate of its timing noise".to_string(),
+        |n| format!("the timing noise of this run is up to {:.0} %", n * 100.0),
+    );
+    let spread = sl / f.max(1e-12) - 1.0;
+    // The default octree is the baseline: ratio 1.
+    let gain = 1.0 / f.max(1e-12) - 1.0;
+    format!(
+        " Conclusion: the octree settings change only the time. The fastest here was {fast} \
+         ({}), the slowest {slow} ({}), a spread of {:.0} %; {noise_text}, so {}.",
+        fmt_ratio(*f),
+        fmt_ratio(*sl),
+        spread * 100.0,
+        if *f >= 1.0 {
+            "no setting beat the default: keep it".to_string()
+        } else if noise.is_some_and(|n| gain <= n) {
+            format!(
+                "the fastest gains {:.0} % on the default, within the noise: keep the default",
+                gain * 100.0
+            )
+        } else if noise.is_none() {
+            format!(
+                "the fastest gains {:.0} % on the default, which this run cannot tell from \
+                 noise: keep the default unless a repeat run confirms it",
+                gain * 100.0
+            )
+        } else {
+            format!(
+                "the fastest gains {:.0} % on the default, more than the noise: it may be worth \
+                 a try on scenes like this one; the default is never wrong, only slower",
+                gain * 100.0
+            )
+        }
+    )
+}
+
+/// The pixel precision's conclusion: point 0 is the baseline with 16-bit pixels, point 1 with
+/// 8-bit ones; `quantization` the RMSE between the two; `closest` the label and RMSE of the
+/// scene's render closest to the reference.
+fn precision_conclusion(
+    sw: &Sweep,
+    quantization: f64,
+    closest: Option<(&str, f64)>,
+    wire: &WireBytes,
+) -> String {
+    let p = &sw.points;
+    if p.len() < 2 {
+        return String::new();
+    }
+    let mut s = format!(
+        " Conclusion: 8-bit pixels would save {:.0} % of the line-result bytes for RMSE {} \
+         against the 16-bit pixels; against the reference they move the baseline's SSIM from {} \
+         to {}",
+        wire.saving() * 100.0,
+        sig3(quantization),
+        fmt_ssim(p[0].ssim),
+        fmt_ssim(p[1].ssim)
+    );
+    s.push_str(if sw.resolved(0, 1) {
+        " and its RMSE by a margin the reference resolves."
+    } else {
+        " and its RMSE by less than the reference resolves."
+    });
+    if let Some((label, best)) = closest.filter(|c| c.1 > 0.0) {
+        let k = best / quantization.max(1e-12);
+        // Quantisation adds about independently of the render's own error.
+        let with8 = best.hypot(quantization);
+        let more = share(with8 - best, best);
+        if k >= 3.0 {
+            let _ = write!(
+                s,
+                " Even the closest render here, {label} at RMSE {}, is {k:.0} times further from \
+                 the reference than 8 bits move a pixel: 8 bits would raise its RMSE only to \
+                 about {} (+{more:.0} %, adding independently), so at these settings they would \
+                 cost nothing that matters and save {:.0} % of the traffic, which counts on slow \
+                 links such as serial lines; 16 bits matter once a render's own error nears the \
+                 8-bit step.",
+                sig3(best),
+                sig3(with8),
+                wire.saving() * 100.0
+            );
+        } else {
+            let _ = write!(
+                s,
+                " The closest render here, {label} at RMSE {}, is only {k:.1} times the 8-bit \
+                 error: 8 bits would raise its RMSE to about {} (+{more:.0} %, adding \
+                 independently), so keep 16-bit pixels for such renders unless the link is the \
+                 bottleneck{}.",
+                sig3(best),
+                sig3(with8),
+                if sw.resolved(0, 1) {
+                    ""
+                } else {
+                    "; for renders as rough as the baseline, where the change is not resolved, \
+                     8 bits would do"
+                }
+            );
+        }
+    }
+    s
+}
+
+// ---------------------------------------------------------------------------------------------
 // The report
 // ---------------------------------------------------------------------------------------------
 
@@ -1185,6 +2068,93 @@ fn identical_note(rows: &[&Row], scene: &SceneRun, what: &str) -> String {
     }
 }
 
+/// The colours a row is measured by: its render's, through 8 bits for an 8-bit row.
+fn row_colors(r: &Row, sc: &SceneRun) -> Colors {
+    let m = &sc.measured[r.measured];
+    if r.eight_bit {
+        to_colors(&through_8_bits(&m.pixels))
+    } else {
+        m.colors.clone()
+    }
+}
+
+/// The value a row's knob takes in its configuration.
+fn knob_value(r: &Row, sc: &SceneRun) -> f64 {
+    let s = &sc.measured[r.measured].config.settings;
+    match r.knob {
+        Knob::Multisample => f64::from(s.samples),
+        Knob::Adaptive => f64::from(s.aa_threshold),
+        Knob::Cutoff => f64::from(s.min_reflection_weight),
+        Knob::Depth => f64::from(s.max_depth),
+        Knob::Occlusion => f64::from(s.ambient_occlusion),
+        Knob::OctreeDepth => f64::from(sc.measured[r.measured].config.octree.max_depth),
+        Knob::OctreeLeaf => f64::from(sc.measured[r.measured].config.octree.max_leaf_triangles),
+        Knob::Precision => {
+            if r.eight_bit {
+                8.0
+            } else {
+                16.0
+            }
+        }
+    }
+}
+
+/// The rows as a [`Sweep`], compared with `residual`.
+fn sweep_of(rs: &[&Row], sc: &SceneRun) -> Sweep {
+    let residual = rs
+        .first()
+        .and_then(|r| sc.residual_errors(r.reference))
+        .unwrap_or(Errors {
+            rmse: 0.0,
+            psnr: f64::INFINITY,
+            ssim: 1.0,
+        });
+    let colors: Vec<Colors> = rs.iter().map(|r| row_colors(r, sc)).collect();
+    let n = rs.len();
+    let mut dist = vec![vec![0.0; n]; n];
+    for i in 0..n {
+        for j in i + 1..n {
+            let same = rs[i].measured == rs[j].measured && rs[i].eight_bit == rs[j].eight_bit;
+            let d = if same {
+                0.0
+            } else {
+                rmse(&colors[i], &colors[j])
+            };
+            dist[i][j] = d;
+            dist[j][i] = d;
+        }
+    }
+    let points = rs
+        .iter()
+        .map(|r| {
+            let num = knob_value(r, sc);
+            Point {
+                label: match r.knob {
+                    Knob::Multisample | Knob::Occlusion | Knob::Depth => format!("{num}"),
+                    _ => r.value.clone(),
+                },
+                num,
+                ratio: r.ratio,
+                rays: sc.measured[r.measured].rays.total(),
+                rmse: r.errors.rmse,
+                ssim: r.errors.ssim,
+            }
+        })
+        .collect();
+    Sweep {
+        points,
+        dist,
+        residual: residual.rmse,
+        ssim_tol: (1.0 - residual.ssim).max(0.0),
+    }
+}
+
+/// Whether every row gave the same image.
+fn all_same(rs: &[&Row], sc: &SceneRun) -> bool {
+    rs.windows(2)
+        .all(|w| sc.measured[w[0].measured].image == sc.measured[w[1].measured].image)
+}
+
 fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
     let mut text = String::new();
     for (si, sc) in scenes.iter().enumerate() {
@@ -1192,7 +2162,8 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
         if rs.is_empty() {
             continue;
         }
-        let scale = rows_of(rows, si, Knob::Multisample)
+        let multisample = rows_of(rows, si, Knob::Multisample);
+        let scale = multisample
             .first()
             .filter(|r| r.measured == 0)
             .map(|r| {
@@ -1203,6 +2174,7 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                 )
             })
             .unwrap_or_default();
+        let residual = sc.residual(rs[0].reference);
         let _ = write!(text, "- **{}.** ", sc.name);
         let body_start = text.len();
         match knob {
@@ -1260,11 +2232,24 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                         );
                     }
                 }
+                let b = &sc.baseline;
+                let other = (b.reflections
+                    && (b.min_reflection_weight != 0.0 || b.max_depth != REFERENCE_DEPTH))
+                    .then(|| {
+                        format!(
+                            "its cut-off ({} against 0) and depth cap ({} against \
+                             {REFERENCE_DEPTH})",
+                            percent(b.min_reflection_weight),
+                            b.max_depth
+                        )
+                    });
+                text.push_str(&multisample_conclusion(
+                    &sweep_of(&rs, sc),
+                    other.as_deref(),
+                ));
             }
             Knob::Adaptive => {
-                let full = rows_of(rows, si, Knob::Multisample)
-                    .into_iter()
-                    .find(|r| r.short == "m4");
+                let full = multisample.iter().copied().find(|r| r.short == "m4");
                 if let Some(f) = full {
                     let _ = write!(
                         text,
@@ -1273,33 +2258,39 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                         sig3(f.errors.rmse)
                     );
                 }
+                if !sc.baseline.skip_effects {
+                    let _ = write!(
+                        text,
+                        " The scene has skip-effects off, so the second pass supersamples every \
+                         pixel and keeps only the flagged ones: adaptive multisampling saves no \
+                         rays here."
+                    );
+                }
+                let pixels = u64::from(sc.baseline.width) * u64::from(sc.baseline.height);
                 for r in &rs {
-                    let _ = write!(text, " Threshold {}: {}.", r.value, figures(r));
+                    let m = &sc.measured[r.measured];
+                    let per_pixel = u64::from(m.config.settings.samples).pow(2).max(1);
+                    let refined = if sc.baseline.skip_effects && pixels > 0 {
+                        format!(
+                            "; {:.1} % of pixels refined",
+                            share((m.rays.extra_samples / per_pixel) as f64, pixels as f64)
+                        )
+                    } else {
+                        String::new()
+                    };
+                    let _ = write!(text, " Threshold {}: {}{refined}.", r.value, figures(r));
                 }
                 if let Some(f) = full {
-                    let close = rs
-                        .iter()
-                        .filter(|r| r.errors.rmse <= f.errors.rmse * 1.1)
-                        .min_by(|a, b| a.time.cmp(&b.time));
-                    match close {
-                        Some(r) => {
-                            let _ = write!(
-                                text,
-                                " The cheapest threshold within 10 % of full multisample 4's RMSE \
-                                 is {}, at {:.0} % of its time.",
-                                r.value,
-                                100.0 * r.time.as_secs_f64() / f.time.as_secs_f64().max(1e-12)
-                            );
-                        }
-                        None => {
-                            let _ = write!(
-                                text,
-                                " No threshold came within 10 % of full multisample 4's RMSE."
-                            );
-                        }
-                    }
+                    let mut all = vec![f];
+                    all.extend(rs.iter().copied());
+                    let k = all.len();
+                    all.extend(multisample.iter().copied());
+                    let sw = sweep_of(&all, sc);
+                    text.push_str(&identical_note(&rs, sc, "threshold"));
+                    text.push_str(&adaptive_conclusion(&sw, 1..k, k..all.len()));
+                } else {
+                    text.push_str(&identical_note(&rs, sc, "threshold"));
                 }
-                text.push_str(&identical_note(&rs, sc, "threshold"));
             }
             Knob::Cutoff | Knob::Depth => {
                 if sc.reflections_forced {
@@ -1334,6 +2325,28 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                         "depth cap"
                     },
                 ));
+                let sw = sweep_of(&rs, sc);
+                let same = all_same(&rs, sc);
+                if knob == Knob::Cutoff {
+                    let own = sw
+                        .points
+                        .iter()
+                        .position(|q| q.num == f64::from(sc.baseline.min_reflection_weight));
+                    let m = |n: u32| {
+                        multisample
+                            .iter()
+                            .find(|r| r.short == format!("m{n}"))
+                            .map(|r| r.errors.rmse)
+                    };
+                    let aliasing = m(1).zip(m(2)).map(|(a, b)| a - b).filter(|&d| d > 0.0);
+                    text.push_str(&cutoff_conclusion(&sw, own, aliasing, same));
+                } else {
+                    let own = sw
+                        .points
+                        .iter()
+                        .position(|q| q.num == f64::from(sc.baseline.max_depth));
+                    text.push_str(&depth_conclusion(&sw, own, same));
+                }
             }
             Knob::Occlusion => {
                 let level = sc.baseline.ambient_occlusion;
@@ -1351,6 +2364,7 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                     );
                 }
                 text.push_str(&scale);
+                let _ = write!(text, " That reference's residual is {}.", sig3(residual));
                 for r in &rs {
                     let rays = sc.measured[r.measured].rays;
                     let _ = write!(
@@ -1362,6 +2376,21 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                     );
                 }
                 text.push_str(&identical_note(&rs, sc, "level"));
+                let reference = sc
+                    .references
+                    .iter()
+                    .find(|r| r.kinds.contains(&RefKind::Occlusion9))
+                    .map_or_else(
+                        || "level-9 reference".to_string(),
+                        |r| {
+                            format!(
+                                "level-9 reference ({} rays per shaded point, multisample {})",
+                                MAX_AMBIENT_OCCLUSION * MAX_AMBIENT_OCCLUSION,
+                                r.settings.samples
+                            )
+                        },
+                    );
+                text.push_str(&occlusion_conclusion(&sweep_of(&rs, sc), level, &reference));
             }
             Knob::OctreeDepth | Knob::OctreeLeaf => {
                 let leaves = rows_of(rows, si, Knob::OctreeLeaf);
@@ -1382,8 +2411,9 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                 if knob == Knob::OctreeDepth {
                     groups.push((Knob::OctreeLeaf, leaves));
                 }
+                let mut times = Vec::new();
                 for (k, g) in groups {
-                    let times: Vec<String> = g
+                    let listed: Vec<String> = g
                         .iter()
                         .map(|r| format!("{}: {}", r.value, fmt_ratio(r.ratio)))
                         .collect();
@@ -1391,12 +2421,15 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                         text,
                         " Render time against the baseline by {}: {}.",
                         k.name(),
-                        times.join(", ")
+                        listed.join(", ")
                     );
+                    times.extend(g.iter().map(|r| (r.short.clone(), r.ratio)));
                 }
+                text.push_str(&octree_conclusion(&times, sc.noise().map(|(n, _)| n)));
             }
             Knob::Precision => {
                 let q = sc.quantization;
+                let wire = &sc.wire;
                 let (sixteen, eight) = (
                     rs.iter().find(|r| !r.eight_bit),
                     rs.iter().find(|r| r.eight_bit),
@@ -1418,6 +2451,43 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
                         sig_pair(a.errors.rmse, b.errors.rmse).1
                     );
                 }
+                let baud = strahl_serial::DEFAULT_BAUD;
+                let _ = write!(
+                    text,
+                    " On the wire (the protocol carries 16-bit pixels only) a line result of {} \
+                     pixels is {:.0} bytes framed ({} of them pixel bytes), the image's {} line \
+                     results {} bytes; with 8-bit pixels they would be {:.0} bytes ({} pixel \
+                     bytes) and {} bytes, {:.0} % less. Over a serial line at the default {baud} \
+                     baud (8N1) that is {:.1} s against {:.1} s per image.",
+                    wire.width,
+                    wire.per_line(false),
+                    wire.pixel_bytes(false),
+                    wire.lines,
+                    fmt_bytes(wire.image16),
+                    wire.per_line(true),
+                    wire.pixel_bytes(true),
+                    fmt_bytes(wire.image8),
+                    wire.saving() * 100.0,
+                    serial_seconds(wire.image16, baud),
+                    serial_seconds(wire.image8, baud)
+                );
+                if let (Some(a), Some(b)) = (sixteen, eight) {
+                    let mut sw = sweep_of(&[*a, *b], sc);
+                    sw.dist[0][1] = q.rmse;
+                    sw.dist[1][0] = q.rmse;
+                    // The render closest to the main reference (octree rows are the baseline).
+                    let closest = rows
+                        .iter()
+                        .filter(|r| r.scene == si && r.reference == RefKind::Main && !r.eight_bit)
+                        .min_by(|x, y| x.errors.rmse.total_cmp(&y.errors.rmse))
+                        .map(|r| (format!("{} {}", r.knob.name(), r.value), r.errors.rmse));
+                    text.push_str(&precision_conclusion(
+                        &sw,
+                        q.rmse,
+                        closest.as_ref().map(|(l, e)| (l.as_str(), *e)),
+                        wire,
+                    ));
+                }
             }
         }
         let body = text.split_off(body_start);
@@ -1427,39 +2497,51 @@ fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
     text
 }
 
-fn knob_intro(knob: Knob) -> &'static str {
+fn knob_intro(knob: Knob) -> String {
     match knob {
-        Knob::Multisample => {
-            "`-m N`: `N × N` stratified camera rays per pixel. The reference uses 8."
-        }
+        Knob::Multisample => format!(
+            "`-m N`: `N × N` stratified camera rays per pixel. The reference uses \
+             {REFERENCE_SAMPLES}, the renderer's most."
+        ),
         Knob::Adaptive => {
-            "`--aa-threshold T` at multisample 4: a pixel gets its 16 rays only where its centre \
-             colour differs from a neighbour's by more than `T`; elsewhere one ray."
+            "`--aa-threshold T` at multisample 4, in two passes: the first traces one \
+             ray through each pixel's centre; the second gives the full 4 × 4 samples (16 more \
+             rays, whose mean replaces the centre's colour) only to the pixels whose centre \
+             differs from its left, right, upper or lower neighbour's by more than `T` in some \
+             channel. Elsewhere the centre ray is the pixel. A refined pixel is exactly full \
+             multisample 4's, so all the error beyond full multisample 4's is in pixels that \
+             were not refined. These rows run the same two-pass path as `strahl render` (the \
+             cluster master with in-process workers)."
+                .to_string()
         }
-        Knob::Cutoff => {
-            "The path weight below which reflection and refraction rays are not traced (the \
-             seed's 10 %); the share not traced goes to the local colour. The reference uses 0."
-        }
-        Knob::Depth => {
+        Knob::Cutoff => "The path weight below which reflection and refraction rays are not \
+             traced (the seed's 10 %); the share not traced goes to the local colour. The \
+             reference uses 0."
+            .to_string(),
+        Knob::Depth => format!(
             "`-d N`: the most bounces (reflection and refraction together), at the scene's \
-             cut-off. The reference uses 32 at cut-off 0."
-        }
-        Knob::Occlusion => {
+             cut-off. The reference uses {REFERENCE_DEPTH} at cut-off 0."
+        ),
+        Knob::Occlusion => format!(
             "`-a N`: `N × N` occlusion rays at each shaded point scale the ambient term by the \
-             share that escapes. Compared with the reference at level 9 (multisample 4)."
-        }
-        Knob::OctreeDepth | Knob::OctreeLeaf => {
-            "`--octree-depth` and `--octree-leaf` change only the acceleration structure: the \
-             octree returns exactly the brute-force closest hit, so the image must not change. \
-             The command checks every pixel against the default octree's render and fails \
-             otherwise. Times are render times; the octree build is not timed here \
-             (`strahl bench` measures it)."
-        }
-        Knob::Precision => {
-            "Pixels travel and are stored as 16-bit fixed point. The 8-bit row is the same \
-             render quantised to 8 bits per channel and back, so its time is the same render's; \
-             only the error is new."
-        }
+             share that escapes. Compared with the reference at level 9 (multisample \
+             {OCCLUSION_REFERENCE_SAMPLES})."
+        ),
+        Knob::OctreeDepth | Knob::OctreeLeaf => "`--octree-depth` and `--octree-leaf` change \
+             only the acceleration structure: the octree returns exactly the brute-force closest \
+             hit, so the image must not change. The command checks every pixel against the \
+             default octree's render and fails otherwise. Times are render times; the octree \
+             build is not timed here (`strahl bench` measures it)."
+            .to_string(),
+        Knob::Precision => format!(
+            "The protocol carries 16-bit pixels only: three little-endian `u16` channels, \
+             {PIXEL_WIRE_BYTES} bytes per pixel in each `LineResult`. The 8-bit row is simulated: \
+             the same render quantised to 8 bits per channel and widened back, so its time is \
+             the same render's. What 8 bits would change is the error and the bytes on the wire \
+             ({PIXEL_WIRE_BYTES_8} bytes per pixel), which are computed by encoding every line \
+             of the baseline image as the protocol's framed `LineResult` (postcard, CRC-32, \
+             COBS) with either pixel size."
+        ),
     }
 }
 
@@ -1591,9 +2673,23 @@ fn report(
         md,
         "- **Reference.** Each scene is rendered once at multisample {REFERENCE_SAMPLES} ({} \
          stratified samples per pixel), reflection cut-off 0 and depth cap {REFERENCE_DEPTH}, \
-         with ambient occlusion at the scene's level. The reference is the renderer's own \
-         output: 16-bit fixed-point pixels, colours clamped to [0, 1].",
+         with ambient occlusion at the scene's level; multisample {REFERENCE_SAMPLES} is the \
+         renderer's most. The reference is the renderer's own output: 16-bit fixed-point \
+         pixels, colours clamped to [0, 1].",
         REFERENCE_SAMPLES * REFERENCE_SAMPLES
+    );
+    let _ = writeln!(
+        md,
+        "- **Residual.** A reference is not the truth. Each one is rendered again at half its \
+         samples per side ({} for the main reference); the RMSE between the two, the \
+         reference's *residual*, estimates its own error from above: the half-sample render is \
+         the less accurate, and where their sampling errors are independent they add. The \
+         renderer stops at multisample {MAX_SAMPLES}, so no render at twice the reference's \
+         samples exists to compare with. The residual decides what the run resolves: for two \
+         settings A and B whose images differ by RMSE d, the reference's own error can shift \
+         RMSE(A)² − RMSE(B)² by at most 2·d·residual (Cauchy–Schwarz), so a difference within \
+         that is reported as not resolved, and no conclusion rests on it.",
+        residual_probe_samples(REFERENCE_SAMPLES)
     );
     let _ = writeln!(
         md,
@@ -1631,34 +2727,54 @@ fn report(
     let _ = writeln!(md, "\n## Scenes\n");
     let _ = writeln!(
         md,
-        "| scene | triangles | solids | baseline settings | baseline s | reference s |"
+        "| scene | triangles | solids | baseline settings | baseline s |"
     );
-    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    let _ = writeln!(md, "|---|---|---|---|---|");
     for s in scenes {
-        let refs: Vec<String> = s
-            .references
-            .iter()
-            .map(|(k, _, t, _)| {
-                format!(
-                    "{} ({}, {})",
-                    fmt_secs(*t),
-                    k.name(),
-                    fmt_ratio(t.as_secs_f64() / s.baseline_time.as_secs_f64().max(1e-12))
-                )
-            })
-            .collect();
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {} |",
             s.name,
             s.triangles,
             s.solids,
             settings_summary(&s.baseline),
-            fmt_secs(s.baseline_time),
-            refs.join("; ")
+            fmt_secs(s.baseline_time)
         );
     }
-    let _ = writeln!(md, "\nReference times are one run each.\n");
+    let _ = writeln!(md, "\n### References and their residuals\n");
+    let _ = writeln!(
+        md,
+        "| scene | reference | settings | s | × baseline | rays | residual render | its s | \
+         residual (RMSE) | PSNR dB | SSIM |"
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|");
+    for s in scenes {
+        let base = s.baseline_time.as_secs_f64().max(1e-12);
+        for r in &s.references {
+            let kinds: Vec<&str> = r.kinds.iter().map(|k| k.name()).collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {} | {} | multisample {} | {} | {} | {} | {} |",
+                s.name,
+                kinds.join("; "),
+                settings_summary(&r.settings),
+                fmt_secs(r.time),
+                fmt_ratio(r.time.as_secs_f64() / base),
+                fmt_rays(r.rays.total()),
+                r.probe_samples,
+                fmt_secs(r.probe_time),
+                sig3(r.residual.rmse),
+                fmt_psnr(r.residual.psnr),
+                fmt_ssim(r.residual.ssim)
+            );
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\nReference and residual times are one run each. The residual is each reference's RMSE \
+         against the residual render; every RMSE below against that reference is uncertain by \
+         about that much.\n"
+    );
     let _ = writeln!(
         md,
         "**Timing noise.** Some settings do exactly the same work: the same image from the same \
@@ -1703,6 +2819,35 @@ fn report(
             fmt_ssim(r.errors.ssim),
             fmt_rays(sc.measured[r.measured].rays.total()),
             r.reference.name()
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nPixel precision: the protocol carries 16-bit pixels only ({PIXEL_WIRE_BYTES} bytes \
+         each). The 8-bit rows are the 16-bit baseline quantised to 8 bits per channel after \
+         the render, so they share its time and rays; an 8-bit wire would carry \
+         {PIXEL_WIRE_BYTES_8} bytes per pixel. Framed line results of the baseline image \
+         (`LineResult`, postcard, CRC-32, COBS, as the workers send them), 16 against 8 bits, \
+         and their time over a serial line at {} baud (8N1):\n",
+        strahl_serial::DEFAULT_BAUD
+    );
+    for sc in scenes {
+        let wb = &sc.wire;
+        let baud = strahl_serial::DEFAULT_BAUD;
+        let _ = writeln!(
+            md,
+            "- {}: {:.0} against {:.0} bytes per line of {} pixels; {} against {} bytes per \
+             image ({} lines), {:.0} % less; {:.1} s against {:.1} s at {baud} baud.",
+            sc.name,
+            wb.per_line(false),
+            wb.per_line(true),
+            wb.width,
+            fmt_bytes(wb.image16),
+            fmt_bytes(wb.image8),
+            wb.lines,
+            wb.saving() * 100.0,
+            serial_seconds(wb.image16, baud),
+            serial_seconds(wb.image8, baud)
         );
     }
     let _ = writeln!(md, "\n## Error against time\n");
@@ -1857,7 +3002,7 @@ fn run_scene(
         desc.objects.len(),
         settings_summary(&baseline)
     )?;
-    let mut references = Vec::new();
+    let mut references: Vec<Reference> = Vec::new();
     let mut ref_images: Vec<(RefKind, Colors)> = Vec::new();
     for (i, (kind, s)) in ref_settings.iter().enumerate() {
         // The AO-9 reference is the main one when the scene already uses level 9.
@@ -1867,6 +3012,9 @@ fn run_scene(
         {
             let colors = ref_images[j].1.clone();
             ref_images.push((*kind, colors));
+            if let Some(r) = references.iter_mut().find(|r| r.settings == *s) {
+                r.kinds.push(*kind);
+            }
             continue;
         }
         let config = Config {
@@ -1874,15 +3022,37 @@ fn run_scene(
             octree: OctreeParams::default(),
         };
         let (t, px, rays) = render_timed(name, desc, &config, cores, 1)?;
+        let colors = to_colors(&px);
+        // The residual: the same settings at half the samples per side.
+        let probe_samples = residual_probe_samples(s.samples);
+        let probe = Config {
+            settings: RenderSettings {
+                samples: probe_samples,
+                ..*s
+            },
+            octree: OctreeParams::default(),
+        };
+        let (probe_time, probe_px, _) = render_timed(name, desc, &probe, cores, 1)?;
+        let residual = errors(&to_colors(&probe_px), &colors, w, h);
         writeln!(
             out,
-            "{}: {} s, {} rays",
+            "{}: {} s, {} rays; residual (RMSE of multisample {probe_samples} against it, {} s): {}",
             kind.name(),
             fmt_secs(t),
-            fmt_rays(rays.total())
+            fmt_rays(rays.total()),
+            fmt_secs(probe_time),
+            sig3(residual.rmse)
         )?;
-        references.push((*kind, *s, t, rays));
-        ref_images.push((*kind, to_colors(&px)));
+        references.push(Reference {
+            kinds: vec![*kind],
+            settings: *s,
+            time: t,
+            rays,
+            probe_samples,
+            probe_time,
+            residual,
+        });
+        ref_images.push((*kind, colors));
     }
     let header = |out: &mut std::io::StdoutLock<'_>, time: &str| {
         writeln!(
@@ -2021,6 +3191,8 @@ fn run_scene(
     }
     let b = &measured[base];
     let quantization = errors(&to_colors(&through_8_bits(&b.pixels)), &b.colors, w, h);
+    let wire = wire_bytes(&b.pixels, w, b.rays)
+        .map_err(|e| anyhow!("{name}: cannot encode line results: {e}"))?;
     let run = SceneRun {
         name: name.to_string(),
         triangles: desc.triangles.len(),
@@ -2031,6 +3203,7 @@ fn run_scene(
         reflections_forced,
         measured,
         quantization,
+        wire,
     };
     rows.extend(mine);
     Ok(run)
@@ -2281,6 +3454,377 @@ mod tests {
     fn civil_dates() {
         assert_eq!(civil_date(0), (1970, 1, 1));
         assert_eq!(civil_date(19_723), (2024, 1, 1));
+    }
+
+    fn pt(label: &str, num: f64, ratio: f64, rays: u64, rmse: f64, ssim: f64) -> Point {
+        Point {
+            label: label.to_string(),
+            num,
+            ratio,
+            rays,
+            rmse,
+            ssim,
+        }
+    }
+
+    /// A sweep whose images differ as independent errors would: `d = √(a² + b²)`.
+    fn independent(points: Vec<Point>, residual: f64) -> Sweep {
+        let dist = points
+            .iter()
+            .map(|a| {
+                points
+                    .iter()
+                    .map(|b| if a == b { 0.0 } else { a.rmse.hypot(b.rmse) })
+                    .collect()
+            })
+            .collect();
+        Sweep {
+            points,
+            dist,
+            residual,
+            ssim_tol: 0.0,
+        }
+    }
+
+    #[test]
+    fn wire_bytes_are_the_protocols_frames() {
+        use strahl_core::protocol::frame::{FrameReader, ReadEvent};
+        use strahl_core::protocol::message::decode_pixels;
+        use strahl_core::protocol::MAX_FRAME_LEN;
+        let (w, h) = (40u32, 3u32);
+        let px: Vec<Pixel> = (0..w * h)
+            .map(|i| Pixel([(i * 523) as u16, (i * 97) as u16, 65535 - i as u16]))
+            .collect();
+        let rays = RayCounts {
+            primary: u64::from(w * h),
+            shadow: 300,
+            ..RayCounts::default()
+        };
+        let wb = wire_bytes(&px, w, rays).expect("encodes");
+        assert_eq!((wb.width, wb.lines), (w, h));
+        assert_eq!(wb.pixel_bytes(false), 240);
+        assert_eq!(wb.pixel_bytes(true), 120);
+        // Each 16-bit frame is a valid line result that decodes to the line's pixels.
+        let mut writer = FrameWriter::new();
+        let mut total = 0;
+        for (y, line) in px.chunks_exact(w as usize).enumerate() {
+            let frame =
+                line_result_frame(&mut writer, 1, y as u32, rays, line, false).expect("encodes");
+            total += frame.len();
+            let mut reader = FrameReader::new(vec![0u8; MAX_FRAME_LEN]);
+            let mut link: &[u8] = &frame;
+            let ReadEvent::Frame(payload) = reader.next(&mut link).expect("reads") else {
+                panic!("no frame");
+            };
+            let WorkerMessage::LineResult {
+                line: l, pixels, ..
+            } = WorkerMessage::decode(payload).expect("decodes")
+            else {
+                panic!("not a line result");
+            };
+            assert_eq!(l, y as u32);
+            let mut back = vec![Pixel::default(); w as usize];
+            decode_pixels(pixels, &mut back).expect("whole pixels");
+            assert_eq!(back, line);
+        }
+        // The image's bytes are those frames (with the mean rays per line, which here are
+        // encoded in as many bytes as the image's).
+        assert!(
+            total.abs_diff(wb.image16) <= 3 * h as usize,
+            "{total} {}",
+            wb.image16
+        );
+        // 8 bits: 3 bytes less per pixel, give or take COBS's code bytes.
+        let saved = wb.image16 - wb.image8;
+        assert!(
+            saved.abs_diff(3 * (w * h) as usize) <= 2 * h as usize,
+            "{saved}"
+        );
+        assert!(wb.saving() > 0.4 && wb.saving() < 0.5, "{}", wb.saving());
+        assert!((wb.per_line(false) - wb.image16 as f64 / 3.0).abs() < 1e-9);
+        assert!((serial_seconds(11_520, 115_200) - 1.0).abs() < 1e-12);
+        assert_eq!(fmt_bytes(1_234_567), "1\u{2009}234\u{2009}567");
+        assert_eq!(fmt_bytes(999), "999");
+    }
+
+    #[test]
+    fn resolution_follows_the_residual() {
+        // Two settings 0.01 and 0.009 with independent errors (d ≈ 0.0135): resolved when
+        // 0.01² − 0.009² = 1.9e-5 > 2·d·residual, i.e. residual < about 0.0007.
+        let pts = vec![
+            pt("a", 1.0, 1.0, 10, 0.010, 0.9),
+            pt("b", 2.0, 2.0, 20, 0.009, 0.9),
+        ];
+        assert!(independent(pts.clone(), 0.0005).resolved(0, 1));
+        assert!(!independent(pts.clone(), 0.001).resolved(0, 1));
+        // Close images (small d) are told apart by smaller differences.
+        let mut close = independent(pts, 0.001);
+        close.dist[0][1] = 0.002;
+        close.dist[1][0] = 0.002;
+        assert!(close.resolved(0, 1));
+        assert!(close.beats(1, 0) && !close.beats(0, 1));
+        // Identical images are never told apart, even with a zero residual.
+        let same = independent(
+            vec![
+                pt("a", 1.0, 1.0, 1, 0.01, 1.0),
+                pt("a", 1.0, 1.0, 1, 0.01, 1.0),
+            ],
+            0.0,
+        );
+        assert!(!same.resolved(0, 1));
+    }
+
+    #[test]
+    fn cheapest_unbeaten_and_settled() {
+        let sw = independent(
+            vec![
+                pt("1", 1.0, 1.0, 100, 0.0500, 0.9),
+                pt("2", 2.0, 2.0, 200, 0.0200, 0.9),
+                pt("3", 3.0, 3.0, 300, 0.0102, 0.9),
+                pt("4", 4.0, 4.0, 400, 0.0100, 0.9),
+            ],
+            0.001,
+        );
+        // 3 and 4 are not told apart; 2 is beaten.
+        assert_eq!(sw.cheapest_unbeaten(&[0, 1, 2, 3]), Some(2));
+        assert_eq!(sw.settled_from(&[0, 1, 2, 3]), Some(2));
+        let exact = independent(sw.points.clone(), 0.0);
+        assert_eq!(exact.settled_from(&[0, 1, 2, 3]), None);
+        assert_eq!(exact.cheapest_unbeaten(&[0, 1, 2, 3]), Some(3));
+    }
+
+    #[test]
+    fn multisample_conclusion_names_what_is_not_resolved() {
+        let pts = vec![
+            pt("1", 1.0, 1.0, 100, 0.0138, 0.989),
+            pt("2", 2.0, 3.0, 400, 0.0064, 0.997),
+            pt("4", 4.0, 11.0, 1600, 0.0026, 0.9995),
+            pt("6", 6.0, 26.0, 3600, 0.0015, 0.9998),
+            pt("8", 8.0, 46.0, 6400, 0.0011, 0.9999),
+        ];
+        let text = multisample_conclusion(&independent(pts.clone(), 0.0009), None);
+        assert!(
+            text.contains("Not resolved: multisample 4 → 6 and 6 → 8."),
+            "{text}"
+        );
+        // 4 and 8 are told apart, 6 and 8 are not.
+        assert!(text.contains("From multisample 6 on"), "{text}");
+        assert!(
+            text.contains("Conclusion: pick multisample 6 when quality matters"),
+            "{text}"
+        );
+        assert!(text.contains("is not resolved by this reference"), "{text}");
+        assert!(!text.contains("more samples would still help"), "{text}");
+        // With an exact reference every step counts and the last one still has error left.
+        let text = multisample_conclusion(&independent(pts.clone(), 0.0), Some("its cut-off"));
+        assert!(text.contains("Every step here is resolved."), "{text}");
+        assert!(text.contains("Conclusion: pick multisample 6"), "{text}");
+        assert!(!text.contains("not resolved by this reference"), "{text}");
+        assert!(
+            text.contains("differs from the reference in its cut-off"),
+            "{text}"
+        );
+        // A reference too coarse to resolve anything.
+        let text = multisample_conclusion(&independent(pts, 0.05), None);
+        assert!(text.contains("cannot tell multisample 1 from 8"), "{text}");
+        assert!(text.contains("multisample 1 is enough"), "{text}");
+    }
+
+    #[test]
+    fn occlusion_conclusion_says_when_few_rays_are_worse_than_none() {
+        // The last run's room: level 1 worse than off in SSIM and RMSE, level 4 better.
+        let pts = vec![
+            pt("0", 0.0, 1.0, 85, 0.0170, 0.98468),
+            pt("1", 1.0, 1.35, 129, 0.0184, 0.92371),
+            pt("2", 2.0, 2.04, 258, 0.0147, 0.97219),
+            pt("4", 4.0, 5.0, 776, 0.0137, 0.98648),
+        ];
+        let text = occlusion_conclusion(&independent(pts.clone(), 0.002), 0, "level-9 reference");
+        assert!(
+            text.contains("Worse than off: level 1 (SSIM 0.92371 against 0.98468"),
+            "{text}"
+        );
+        assert!(
+            text.contains("level 2 in SSIM (0.97219 against 0.98468), though its RMSE is lower"),
+            "{text}"
+        );
+        assert!(text.contains("(with one ray, 0 or 1)"), "{text}");
+        assert!(text.contains("Conclusion: pick level 4"), "{text}");
+        // When no level beats off by a resolved margin, the advice is to leave it off, and a
+        // level better on both counts is named as not resolved.
+        let text = occlusion_conclusion(&independent(pts, 0.02), 0, "level-9 reference");
+        assert!(text.contains("leave it off"), "{text}");
+        assert!(
+            text.contains("Level 4 scores better than off in both RMSE and SSIM, but by less"),
+            "{text}"
+        );
+        // An SSIM drop within the residual's own SSIM is not "worse".
+        let mut sw = independent(
+            vec![
+                pt("0", 0.0, 1.0, 85, 0.0227, 0.97294),
+                pt("2", 2.0, 2.0, 258, 0.0202, 0.97292),
+            ],
+            0.001,
+        );
+        sw.ssim_tol = 0.002;
+        let text = occlusion_conclusion(&sw, 0, "level-9 reference");
+        assert!(!text.contains("Worse than off"), "{text}");
+        assert!(text.contains("Conclusion: pick level 2"), "{text}");
+        // No level worse than off: no such sentence.
+        let text = occlusion_conclusion(
+            &independent(
+                vec![
+                    pt("0", 0.0, 1.0, 85, 0.0170, 0.980),
+                    pt("2", 2.0, 2.0, 258, 0.0120, 0.990),
+                ],
+                0.001,
+            ),
+            2,
+            "level-9 reference",
+        );
+        assert!(!text.contains("Worse than off"), "{text}");
+        assert!(text.contains("Conclusion: pick level 2"), "{text}");
+    }
+
+    #[test]
+    fn cutoff_and_depth_conclusions_follow_the_numbers() {
+        let cut = vec![
+            pt("10 %", 0.1, 1.0, 258, 0.0157, 0.9827),
+            pt("1 %", 0.01, 1.03, 265, 0.0146, 0.9846),
+            pt("0 %", 0.0, 1.03, 268, 0.0146, 0.9846),
+        ];
+        let mut sw = independent(cut, 0.0009);
+        // Cut-off changes are small image changes.
+        for (i, j, d) in [(0, 1, 0.004), (0, 2, 0.0041), (1, 2, 0.0002)] {
+            sw.dist[i][j] = d;
+            sw.dist[j][i] = d;
+        }
+        let text = cutoff_conclusion(&sw, Some(0), Some(0.0066), false);
+        assert!(
+            text.contains("Conclusion: for accuracy, pick cut-off 1 %"),
+            "{text}"
+        );
+        assert!(text.contains("The scene's 10 % falls short"), "{text}");
+        assert!(
+            text.contains("bias that multisampling does not remove"),
+            "{text}"
+        );
+        let same = independent(
+            vec![
+                pt("10 %", 0.1, 1.0, 98, 0.0133, 0.99),
+                pt("0 %", 0.0, 1.0, 98, 0.0133, 0.99),
+            ],
+            0.001,
+        );
+        let text = cutoff_conclusion(&same, Some(0), None, true);
+        assert!(
+            text.contains("keep the scene's 10 %: lower cut-offs buy nothing"),
+            "{text}"
+        );
+
+        let depth = vec![
+            pt("1", 1.0, 0.9, 209, 0.0518, 0.899),
+            pt("2", 2.0, 1.0, 241, 0.0257, 0.957),
+            pt("4", 4.0, 1.0, 253, 0.0166, 0.978),
+            pt("8", 8.0, 1.0, 256, 0.0158, 0.982),
+            pt("16", 16.0, 1.0, 258, 0.0157, 0.983),
+        ];
+        let mut sw = independent(depth, 0.0009);
+        for i in 0..5 {
+            for j in 0..5 {
+                if i != j {
+                    sw.dist[i][j] = (sw.points[i].rmse - sw.points[j].rmse).abs() + 0.002;
+                }
+            }
+        }
+        let text = depth_conclusion(&sw, Some(1), false);
+        assert!(
+            text.contains("Conclusion: a depth cap of 8 is enough"),
+            "{text}"
+        );
+        assert!(
+            text.contains("The scene's own cap, 2, is too low"),
+            "{text}"
+        );
+        assert!(text.contains("cap 1 has RMSE 0.0518"), "{text}");
+        let text = depth_conclusion(&sw, Some(4), false);
+        assert!(
+            text.contains("The scene's own cap, 16, is more than enough"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn adaptive_octree_and_precision_conclusions() {
+        let pts = vec![
+            pt("4", 4.0, 11.5, 1400, 0.00263, 0.9996),
+            pt("0.3", 0.3, 2.84, 293, 0.00543, 0.9969),
+            pt("0.1", 0.1, 3.02, 322, 0.00273, 0.9994),
+            pt("1", 1.0, 1.0, 85, 0.0138, 0.989),
+            pt("2", 2.0, 3.01, 341, 0.00636, 0.9973),
+        ];
+        let text = adaptive_conclusion(&independent(pts.clone(), 0.0009), 1..3, 3..5);
+        assert!(
+            text.contains("use threshold 0.1 rather than full multisampling"),
+            "{text}"
+        );
+        assert!(
+            text.contains("gets no further than multisample 2 (3.01×, RMSE 0.00636)"),
+            "{text}"
+        );
+        let text = adaptive_conclusion(&independent(pts[..2].to_vec(), 0.0), 1..2, 2..2);
+        assert!(
+            text.contains("no threshold matched full multisample 4"),
+            "{text}"
+        );
+
+        let times = vec![("depth 8".to_string(), 0.88), ("leaf 8".to_string(), 1.0)];
+        assert!(
+            octree_conclusion(&times, Some(0.15)).contains("within the noise: keep the default")
+        );
+        assert!(octree_conclusion(&times, Some(0.05)).contains("more than the noise"));
+        let unsure = octree_conclusion(&times, None);
+        assert!(
+            unsure.contains("no estimate of its timing noise"),
+            "{unsure}"
+        );
+        assert!(
+            unsure.contains("cannot tell from noise: keep the default"),
+            "{unsure}"
+        );
+        let slower = vec![("depth 4".to_string(), 1.12), ("leaf 8".to_string(), 1.0)];
+        assert!(octree_conclusion(&slower, None).contains("no setting beat the default"));
+
+        let wire = WireBytes {
+            width: 240,
+            lines: 180,
+            image16: 263_000,
+            image8: 133_000,
+        };
+        let mut sw = independent(
+            vec![
+                pt("16 bit", 16.0, 1.0, 85, 0.0138, 0.98937),
+                pt("8 bit", 8.0, 1.0, 85, 0.01385, 0.98888),
+            ],
+            0.0009,
+        );
+        sw.dist[0][1] = 0.0011;
+        sw.dist[1][0] = 0.0011;
+        let text = precision_conclusion(&sw, 0.0011, Some(("multisample 8", 0.0011 * 5.0)), &wire);
+        assert!(
+            text.contains("save 49 % of the line-result bytes"),
+            "{text}"
+        );
+        assert!(
+            text.contains("by less than the reference resolves"),
+            "{text}"
+        );
+        assert!(text.contains("5 times further"), "{text}");
+        // √(0.0055² + 0.0011²) = 0.00561: +2 %.
+        assert!(text.contains("only to about 0.00561 (+2 %"), "{text}");
+        let text = precision_conclusion(&sw, 0.0011, Some(("multisample 8", 0.002)), &wire);
+        assert!(text.contains("keep 16-bit pixels"), "{text}");
+        assert!(text.contains("as rough as the baseline"), "{text}");
     }
 
     #[test]

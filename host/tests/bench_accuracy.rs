@@ -56,6 +56,45 @@ fn accuracy_report_has_every_knob_and_exact_octree_rows() {
         assert_eq!(cells[8], "1", "{row}");
     }
     assert!(md.contains("f32 against f64"));
+
+    // The references' residuals are measured and shown.
+    assert!(md.contains("### References and their residuals"), "{md}");
+    assert!(
+        md.lines().any(|l| l.starts_with("| ")
+            && l.contains("| reference |")
+            && l.contains("| multisample 8 |")),
+        "no residual row for the main reference (multisample 16 against 8): {md}"
+    );
+    // The 8-bit row's bytes on the wire: 6 against 3 bytes per pixel of the 32-pixel lines.
+    assert!(
+        md.contains("the protocol carries 16-bit pixels only"),
+        "{md}"
+    );
+    assert!(md.contains("bytes per line of 32 pixels"), "{md}");
+    assert!(md.contains("(192 of them pixel bytes)"), "{md}");
+    assert!(md.contains("(96 pixel bytes)"), "{md}");
+    // Every knob's paragraph ends with a conclusion.
+    let knobs = md
+        .split("\n## What each knob buys\n")
+        .nth(1)
+        .expect("the knob section");
+    for section in knobs.split("\n### ").skip(1) {
+        let title = section.lines().next().unwrap_or_default();
+        if title.starts_with("Floating point") {
+            continue;
+        }
+        let items: Vec<&str> = section.lines().filter(|l| l.starts_with("- **")).collect();
+        assert!(!items.is_empty(), "no paragraph under {title}");
+        for item in items {
+            // One conclusion, after the figures and notes it rests on.
+            assert_eq!(item.matches(" Conclusion: ").count(), 1, "{title}: {item}");
+            let tail = item.split(" Conclusion: ").nth(1).unwrap_or_default();
+            assert!(
+                !tail.contains("identical images") && !tail.contains(" RMSE reduction from "),
+                "{title}: figures after the conclusion in {item}"
+            );
+        }
+    }
     assert!(md.contains("(accuracy.svg)"));
 
     let svg =
