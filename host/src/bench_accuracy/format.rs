@@ -1,0 +1,128 @@
+//! Number formatting for the report's tables and text.
+
+use super::*;
+
+/// `v` with three significant digits, without exponent.
+pub(super) fn sig3(v: f64) -> String {
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    if !v.is_finite() {
+        return v.to_string();
+    }
+    let mag = v.abs().log10().floor() as i32;
+    let decimals = (2 - mag).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+pub(super) fn fmt_psnr(p: f64) -> String {
+    if p.is_infinite() {
+        "∞".to_string()
+    } else {
+        format!("{p:.2}")
+    }
+}
+
+pub(super) fn fmt_ssim(s: f64) -> String {
+    if s == 1.0 {
+        "1".to_string()
+    } else {
+        format!("{s:.5}")
+    }
+}
+
+pub(super) fn fmt_secs(t: Duration) -> String {
+    format!("{:.3}", t.as_secs_f64())
+}
+
+pub(super) fn fmt_ratio(r: f64) -> String {
+    if r >= 10.0 {
+        format!("{r:.1}×")
+    } else {
+        format!("{r:.2}×")
+    }
+}
+
+pub(super) fn fmt_rays(r: u64) -> String {
+    if r >= 10_000_000 {
+        format!("{:.0} M", r as f64 / 1e6)
+    } else if r >= 1_000_000 {
+        format!("{:.1} M", r as f64 / 1e6)
+    } else if r >= 10_000 {
+        format!("{:.0} k", r as f64 / 1e3)
+    } else {
+        r.to_string()
+    }
+}
+
+/// Two figures to three significant digits, or five where three would look the same.
+pub(super) fn sig_pair(a: f64, b: f64) -> (String, String) {
+    let (x, y) = (sig3(a), sig3(b));
+    if x != y || a == b {
+        return (x, y);
+    }
+    let five = |v: f64| {
+        let mag = v.abs().log10().floor() as i32;
+        let decimals = (4 - mag).max(0) as usize;
+        format!("{v:.decimals$}")
+    };
+    (five(a), five(b))
+}
+
+/// "lowers RMSE from a to b", "raises ...", or "leaves RMSE at a".
+pub(super) fn rmse_change(a: f64, b: f64) -> String {
+    let (x, y) = sig_pair(a, b);
+    if a == b {
+        format!("leaves RMSE at {x}")
+    } else if b < a {
+        format!("lowers RMSE from {x} to {y}")
+    } else {
+        format!("raises RMSE from {x} to {y}")
+    }
+}
+
+pub(super) fn settings_summary(s: &RenderSettings) -> String {
+    format!(
+        "multisample {}, shadows {}, reflections {}, cut-off {}, depth cap {}, AO {}",
+        s.samples,
+        if s.shadows { "on" } else { "off" },
+        if s.reflections { "on" } else { "off" },
+        percent(s.min_reflection_weight),
+        s.max_depth,
+        s.ambient_occlusion
+    )
+}
+
+pub(super) fn stdout_row(
+    out: &mut impl std::io::Write,
+    scene: &str,
+    r: &Row,
+    rays: u64,
+) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  {}",
+        scene,
+        r.knob.name(),
+        r.value,
+        fmt_secs(r.time),
+        fmt_ratio(r.ratio),
+        sig3(r.errors.rmse),
+        fmt_psnr(r.errors.psnr),
+        fmt_ssim(r.errors.ssim),
+        fmt_rays(rays),
+        r.reference.name()
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sig3_formats() {
+        assert_eq!(sig3(0.012345), "0.0123");
+        assert_eq!(sig3(1.5), "1.50");
+        assert_eq!(sig3(0.0), "0");
+    }
+}

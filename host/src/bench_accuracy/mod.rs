@@ -1,0 +1,1071 @@
+//! `strahl bench accuracy`: what each accuracy knob buys, and what it costs in time.
+//!
+//! For each scene (the demo room of `scenes/room/raytracer.cfg` and up to two `scenes/fart/*.fart`
+//! by default, or the `--scene` files given) at a modest size, the command
+//!
+//! 1. renders a converged **reference**: multisample 16 (256 stratified samples per pixel, the
+//!    renderer's most), reflection cut-off 0, depth cap 32, ambient occlusion at the scene's
+//!    level. Pixels are the renderer's 16-bit fixed point, the reference's too. Two knobs get their
+//!    own reference: ambient occlusion is compared with the same render at level 9, and the
+//!    reflection knobs of a scene with reflections off are swept with reflections on and compared
+//!    with the reference with reflections on. Every reference is also rendered at half its samples
+//!    per side; the RMSE between the two is the reference's **residual**, an upper estimate of its
+//!    own error, and differences between settings that the residual could explain are reported
+//!    as not resolved;
+//! 2. sweeps each knob alone from the **baseline** (the scene's own settings at multisample 1):
+//!    multisample, adaptive threshold, reflection cut-off, depth cap, ambient-occlusion level,
+//!    octree depth and leaf size, and 8- against 16-bit pixels (the protocol carries 16-bit pixels
+//!    only: the 8-bit row is simulated on the rendered pixels, and the bytes its line results
+//!    would take on the wire are computed with the protocol's own encoder);
+//! 3. times every setting (median of `--runs` renders with one in-process worker per CPU, scene
+//!    preparation not timed) and measures its error against the reference: RMSE and PSNR over
+//!    the colour channels in `[0, 1]`, and SSIM (11×11 Gaussian window, σ = 1.5) on luminance;
+//! 4. writes a Markdown report (`--out`, default `docs/accuracy.md`) with the table, an SVG plot
+//!    of error against time with the Pareto front (written next to it), and a paragraph per knob
+//!    generated from the measured numbers, each ending with a conclusion drawn from them.
+//!
+//! Octree settings must not change a pixel: the command fails, naming the setting and the first
+//! pixel that differs, if one does.
+//!
+//! This file plans the sweep (knobs, references, the rows of a scene) and runs it; the parts
+//! around it: `metrics` (RMSE, PSNR, SSIM, the Pareto front), `wire` (line-result bytes at 16
+//! and 8 bits), `conclusions` (what the reference resolves, and the conclusion of each
+//! paragraph), `report` (the Markdown text), `plot` (the SVG) and `format` (numbers in
+//! text).
+
+use crate::cluster::local::render_local;
+use crate::cluster::prepared::PreparedScene;
+use crate::load::{load_scene, Overrides};
+use anyhow::{anyhow, bail, Context as _};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::num::NonZeroUsize;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+use strahl_core::error::ProtocolError;
+use strahl_core::octree::OctreeParams;
+use strahl_core::pixel::Pixel;
+use strahl_core::protocol::frame::FrameWriter;
+use strahl_core::protocol::message::{encode_pixels, WorkerMessage};
+use strahl_core::protocol::PIXEL_WIRE_BYTES;
+use strahl_core::scene::{
+    RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
+};
+use strahl_core::shade::RayCounts;
+
+mod conclusions;
+mod format;
+mod metrics;
+mod plot;
+mod report;
+mod wire;
+
+use conclusions::*;
+use format::*;
+pub use metrics::*;
+pub use plot::*;
+use report::*;
+pub use wire::*;
+
+/// The demo room's configuration file, relative to the checkout's root.
+pub const DEFAULT_ROOM: &str = "scenes/room/raytracer.cfg";
+/// The folder whose `.fart` scenes are added by default: the first two that load of
+/// [`PREFERRED_FART_SCENES`] and then the others by name.
+pub const DEFAULT_FART_DIR: &str = "scenes/fart";
+/// The `.fart` scenes tried first: facing mirrors (the reflection knobs matter) and glass
+/// spheres (refraction, so the depth cap matters).
+pub const PREFERRED_FART_SCENES: [&str; 2] = ["mirrors.fart", "glass.fart"];
+/// The least wall time of one timed run: shorter renders repeat within the run, and the run's
+/// time is the mean per render.
+pub const MIN_RUN: Duration = Duration::from_millis(100);
+/// Samples per pixel side of the main reference: the renderer's most ([`MAX_SAMPLES`]).
+///
+/// Chosen by measured cost. Multisample 8 was not converged: against multisample 16 its RMSE was
+/// about 0.0009, as large as the differences between multisample 5, 6 and 7. There is no render
+/// at twice the samples per side of multisample 16 to measure its residual against (the renderer
+/// stops at 16), so the reference is multisample 16 and its residual is measured against
+/// multisample 8 ([`residual_probe_samples`]), which bounds it from above. Multisample 16 costs
+/// about four times multisample 8 (glass.fart at 240×180 on 2 CPUs: 2.8 s against 14.8 s): in the
+/// run that wrote `docs/accuracy.md` (282 s) the three scenes' main references took 20 s at
+/// multisample 8, so multisample 16 adds about a minute, and the residual renders (a quarter of
+/// each reference, the ambient-occlusion ones included) about 45 s more: acceptable.
+pub const REFERENCE_SAMPLES: u32 = MAX_SAMPLES;
+/// Depth cap of the reference.
+pub const REFERENCE_DEPTH: u32 = 32;
+/// Samples per pixel side of the ambient-occlusion reference (level 9): 16 × 81 = 1,296
+/// occlusion rays per pixel; multisample 8 would take four times as long. Its residual is
+/// measured like the main reference's, against half the samples per side.
+pub const OCCLUSION_REFERENCE_SAMPLES: u32 = 4;
+
+/// Samples per pixel side of the render a reference's residual is measured against: half the
+/// reference's (at least 1).
+pub const fn residual_probe_samples(samples: u32) -> u32 {
+    if samples > 1 {
+        samples / 2
+    } else {
+        1
+    }
+}
+
+/// An image size given as `WxH`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImageSize {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+}
+
+/// Parses `WxH` (for example `320x240`), each side 8 to [`MAX_IMAGE_SIDE`].
+///
+/// # Errors
+/// A message naming what is wrong.
+pub fn parse_size(s: &str) -> Result<ImageSize, String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT, e.g. 320x240, found `{s}`"))?;
+    let side = |v: &str, what: &str| -> Result<u32, String> {
+        let n: u32 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("the {what} `{v}` is not a whole number"))?;
+        if !(8..=MAX_IMAGE_SIDE).contains(&n) {
+            return Err(format!(
+                "the {what} must be 8 to {MAX_IMAGE_SIDE} pixels, found {n}"
+            ));
+        }
+        Ok(n)
+    };
+    Ok(ImageSize {
+        width: side(w, "width")?,
+        height: side(h, "height")?,
+    })
+}
+
+/// Arguments of `strahl bench accuracy`.
+#[derive(Debug, clap::Args)]
+pub struct AccuracyArgs {
+    /// A scene to measure (repeatable) [default: scenes/room/raytracer.cfg and the first two
+    /// scenes/fart/*.fart that load, mirrors.fart and glass.fart first; from the current folder].
+    #[arg(long = "scene", value_name = "PATH")]
+    pub scenes: Vec<PathBuf>,
+    /// Image size of every render.
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = parse_size)]
+    pub size: ImageSize,
+    /// Timed runs per setting (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 3,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// The Markdown report; the SVG plot goes next to it (same name, `.svg`).
+    #[arg(long, value_name = "FILE", default_value = "docs/accuracy.md")]
+    pub out: PathBuf,
+    /// Sweep fewer values of each knob (for tests and a first look).
+    #[arg(long)]
+    pub quick: bool,
+}
+
+// ---------------------------------------------------------------------------------------------
+// The sweep
+// ---------------------------------------------------------------------------------------------
+
+/// The knobs swept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Knob {
+    /// Samples per pixel side (`-m`).
+    Multisample,
+    /// Adaptive multisampling threshold at multisample 4.
+    Adaptive,
+    /// Reflection (and refraction) weight cut-off.
+    Cutoff,
+    /// Bounce depth cap.
+    Depth,
+    /// Ambient-occlusion level.
+    Occlusion,
+    /// Octree depth limit.
+    OctreeDepth,
+    /// Octree leaf size.
+    OctreeLeaf,
+    /// Bits per channel of the pixels on the wire.
+    Precision,
+}
+
+impl Knob {
+    /// Every knob, in report order.
+    pub const ALL: [Knob; 8] = [
+        Knob::Multisample,
+        Knob::Adaptive,
+        Knob::Cutoff,
+        Knob::Depth,
+        Knob::Occlusion,
+        Knob::OctreeDepth,
+        Knob::OctreeLeaf,
+        Knob::Precision,
+    ];
+
+    /// The knob's name in the table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Knob::Multisample => "multisample",
+            Knob::Adaptive => "adaptive threshold (m 4)",
+            Knob::Cutoff => "reflection cut-off",
+            Knob::Depth => "depth cap",
+            Knob::Occlusion => "ambient occlusion",
+            Knob::OctreeDepth => "octree depth",
+            Knob::OctreeLeaf => "octree leaf size",
+            Knob::Precision => "pixel precision",
+        }
+    }
+
+    /// Its colour in the plot.
+    fn color(self) -> &'static str {
+        match self {
+            Knob::Multisample => "#1f77b4",
+            Knob::Adaptive => "#ff7f0e",
+            Knob::Cutoff => "#2ca02c",
+            Knob::Depth => "#d62728",
+            Knob::Occlusion => "#9467bd",
+            Knob::OctreeDepth => "#8c564b",
+            Knob::OctreeLeaf => "#e377c2",
+            Knob::Precision => "#7f7f7f",
+        }
+    }
+}
+
+/// What a row's error is measured against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum RefKind {
+    /// The converged reference at the scene's settings.
+    Main,
+    /// The reference with reflections turned on (scenes that have them off).
+    Reflections,
+    /// The reference at ambient-occlusion level 9.
+    Occlusion9,
+    /// The baseline render with the default octree (octree rows: must be identical).
+    Baseline,
+}
+
+impl RefKind {
+    fn name(self) -> &'static str {
+        match self {
+            RefKind::Main => "reference",
+            RefKind::Reflections => "reference, reflections on",
+            RefKind::Occlusion9 => "reference, AO 9 (m 4)",
+            RefKind::Baseline => "baseline (default octree)",
+        }
+    }
+}
+
+/// One render configuration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Config {
+    settings: RenderSettings,
+    octree: OctreeParams,
+}
+
+/// A configuration rendered and timed.
+struct Measured {
+    config: Config,
+    /// Wall time of each render, one per round.
+    times: Vec<Duration>,
+    /// Median of `times`.
+    time: Duration,
+    pixels: Vec<Pixel>,
+    colors: Colors,
+    rays: RayCounts,
+    /// Index of the first measured configuration of this scene with exactly these pixels.
+    image: usize,
+}
+
+/// The three error figures.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Errors {
+    rmse: f64,
+    psnr: f64,
+    ssim: f64,
+}
+
+/// One row of the report.
+struct Row {
+    scene: usize,
+    knob: Knob,
+    value: String,
+    /// Short label in the plot.
+    short: String,
+    /// Index into the scene's measured configurations.
+    measured: usize,
+    /// 8-bit pixels (precision row).
+    eight_bit: bool,
+    reference: RefKind,
+    time: Duration,
+    ratio: f64,
+    errors: Errors,
+}
+
+/// A reference as rendered, with its residual.
+struct Reference {
+    /// The comparisons it serves (several when they share its settings).
+    kinds: Vec<RefKind>,
+    settings: RenderSettings,
+    /// Render time (one run).
+    time: Duration,
+    rays: RayCounts,
+    /// Samples per pixel side of the residual render ([`residual_probe_samples`]).
+    probe_samples: u32,
+    /// Its render time (one run).
+    probe_time: Duration,
+    /// The residual render's error against the reference: its RMSE is the reference's residual.
+    residual: Errors,
+}
+
+/// A scene as measured.
+struct SceneRun {
+    name: String,
+    triangles: usize,
+    solids: usize,
+    baseline: RenderSettings,
+    baseline_time: Duration,
+    /// The distinct references.
+    references: Vec<Reference>,
+    reflections_forced: bool,
+    measured: Vec<Measured>,
+    /// Error of 8-bit against 16-bit pixels of the baseline render.
+    quantization: Errors,
+    /// The baseline image's line results on the wire.
+    wire: WireBytes,
+}
+
+impl SceneRun {
+    /// The residual (RMSE) of the reference that `kind` compares with; 0 for the baseline.
+    fn residual(&self, kind: RefKind) -> f64 {
+        self.residual_errors(kind).map_or(0.0, |e| e.rmse)
+    }
+
+    /// The residual render's errors against the reference that `kind` compares with; `None`
+    /// for the baseline (compared exactly).
+    fn residual_errors(&self, kind: RefKind) -> Option<Errors> {
+        self.references
+            .iter()
+            .find(|r| r.kinds.contains(&kind))
+            .map(|r| r.residual)
+    }
+
+    /// The largest relative spread of median times among settings that do the same work (default
+    /// octree, identical image, identical ray counts): `(max / min − 1, how many settings)`.
+    fn noise(&self) -> Option<(f64, usize)> {
+        let same_octree: Vec<&Measured> = self
+            .measured
+            .iter()
+            .filter(|m| m.config.octree == OctreeParams::default())
+            .collect();
+        let mut worst: Option<(f64, usize)> = None;
+        for (i, a) in same_octree.iter().enumerate() {
+            let group: Vec<&&Measured> = same_octree[i..]
+                .iter()
+                .filter(|b| b.image == a.image && b.rays == a.rays)
+                .collect();
+            if group.len() < 2 {
+                continue;
+            }
+            let (lo, hi) = group.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), m| {
+                let t = m.time.as_secs_f64();
+                (lo.min(t), hi.max(t))
+            });
+            if lo > 0.0 {
+                let spread = hi / lo - 1.0;
+                if worst.is_none_or(|(w, _)| spread > w) {
+                    worst = Some((spread, group.len()));
+                }
+            }
+        }
+        worst
+    }
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v.get(v.len() / 2).copied().unwrap_or_default()
+}
+
+/// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
+fn percent(v: f32) -> String {
+    let p = format!("{:.2}", f64::from(v) * 100.0);
+    let p = p.trim_end_matches('0').trim_end_matches('.');
+    format!("{p} %")
+}
+
+/// The planned rows of one scene: knob, value, plot label, configuration, reference.
+fn plan(
+    baseline: &RenderSettings,
+    quick: bool,
+) -> Vec<(Knob, String, String, Config, RefKind, bool)> {
+    let octree = OctreeParams::default();
+    let cfg = |settings: RenderSettings| Config { settings, octree };
+    let mut rows = Vec::new();
+    let pick = |full: &[u32], q: &[u32]| -> Vec<u32> {
+        if quick {
+            q.to_vec()
+        } else {
+            full.to_vec()
+        }
+    };
+    for m in pick(&[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 4]) {
+        let s = RenderSettings {
+            samples: m,
+            aa_threshold: -1.0,
+            ..*baseline
+        };
+        rows.push((
+            Knob::Multisample,
+            format!("{m} ({} spp)", m * m),
+            format!("m{m}"),
+            cfg(s),
+            RefKind::Main,
+            false,
+        ));
+    }
+    let thresholds: &[f32] = if quick {
+        &[0.1]
+    } else {
+        &[0.3, 0.1, 0.03, 0.01]
+    };
+    for &t in thresholds {
+        let s = RenderSettings {
+            samples: 4,
+            aa_threshold: t,
+            ..*baseline
+        };
+        rows.push((
+            Knob::Adaptive,
+            format!("{t}"),
+            format!("t{t}"),
+            cfg(s),
+            RefKind::Main,
+            false,
+        ));
+    }
+    let reflect_ref = if baseline.reflections {
+        RefKind::Main
+    } else {
+        RefKind::Reflections
+    };
+    let reflective = RenderSettings {
+        reflections: true,
+        ..*baseline
+    };
+    // The scene's own cut-off and depth cap join the sweeps.
+    let mut cutoffs: Vec<f32> = if quick {
+        vec![0.1, 0.0]
+    } else {
+        vec![0.1, 0.05, 0.01, 0.0]
+    };
+    if !cutoffs.contains(&baseline.min_reflection_weight) {
+        cutoffs.push(baseline.min_reflection_weight);
+        cutoffs.sort_by(|a, b| b.total_cmp(a));
+    }
+    for c in cutoffs {
+        let s = RenderSettings {
+            min_reflection_weight: c,
+            ..reflective
+        };
+        rows.push((
+            Knob::Cutoff,
+            percent(c),
+            format!("cut {}", percent(c)),
+            cfg(s),
+            reflect_ref,
+            false,
+        ));
+    }
+    let mut depths = pick(&[1, 2, 4, 8, 16], &[1, 16]);
+    if !depths.contains(&baseline.max_depth) {
+        depths.push(baseline.max_depth);
+        depths.sort_unstable();
+    }
+    for d in depths {
+        let s = RenderSettings {
+            max_depth: d,
+            ..reflective
+        };
+        rows.push((
+            Knob::Depth,
+            d.to_string(),
+            format!("d{d}"),
+            cfg(s),
+            reflect_ref,
+            false,
+        ));
+    }
+    let levels: Vec<u32> = match (baseline.ambient_occlusion, quick) {
+        (0, false) => vec![0, 1, 2, 4],
+        (0, true) => vec![0, 1],
+        (l, false) => (0..=MAX_AMBIENT_OCCLUSION).chain([l]).collect(),
+        (l, true) => vec![0, l, MAX_AMBIENT_OCCLUSION],
+    };
+    let mut seen = Vec::new();
+    for a in levels {
+        if seen.contains(&a) {
+            continue;
+        }
+        seen.push(a);
+        let s = RenderSettings {
+            ambient_occlusion: a,
+            ..*baseline
+        };
+        rows.push((
+            Knob::Occlusion,
+            match a {
+                0 => "0 (off)".to_string(),
+                1 => "1 (1 ray)".to_string(),
+                _ => format!("{a} ({} rays)", a * a),
+            },
+            format!("AO {a}"),
+            cfg(s),
+            RefKind::Occlusion9,
+            false,
+        ));
+    }
+    for d in pick(&[4, 8, 12, 16, 20], &[4, 16]) {
+        rows.push((
+            Knob::OctreeDepth,
+            d.to_string(),
+            format!("depth {d}"),
+            Config {
+                settings: *baseline,
+                octree: OctreeParams {
+                    max_depth: d,
+                    ..octree
+                },
+            },
+            RefKind::Baseline,
+            false,
+        ));
+    }
+    for l in pick(&[1, 2, 4, 8, 16, 32], &[1, 8]) {
+        rows.push((
+            Knob::OctreeLeaf,
+            l.to_string(),
+            format!("leaf {l}"),
+            Config {
+                settings: *baseline,
+                octree: OctreeParams {
+                    max_leaf_triangles: l,
+                    ..octree
+                },
+            },
+            RefKind::Baseline,
+            false,
+        ));
+    }
+    for bits in [16, 8] {
+        rows.push((
+            Knob::Precision,
+            format!("{bits} bit"),
+            format!("{bits} bit"),
+            cfg(*baseline),
+            RefKind::Main,
+            bits == 8,
+        ));
+    }
+    rows
+}
+
+/// Renders `desc` with `config` `runs` times on `workers` in-process workers; returns the median
+/// time, the pixels and the rays. Every run must give the same pixels. Scene preparation is not
+/// timed.
+fn render_timed(
+    name: &str,
+    desc: &SceneDesc,
+    config: &Config,
+    workers: usize,
+    runs: usize,
+) -> anyhow::Result<(Duration, Vec<Pixel>, RayCounts)> {
+    let mut d = desc.clone();
+    d.settings = config.settings;
+    let prepared = PreparedScene::new(&d, &config.octree).map_err(|e| anyhow!("{name}: {e}"))?;
+    let mut times = Vec::with_capacity(runs);
+    let mut first: Option<(Vec<Pixel>, RayCounts)> = None;
+    for _ in 0..runs.max(1) {
+        // Short renders repeat until the run lasts MIN_RUN: the time is per render.
+        let t = Instant::now();
+        let mut count = 0u32;
+        let img = loop {
+            let img = render_local(&prepared, workers, &|_, _| {})
+                .with_context(|| format!("{name}: render failed"))?;
+            count += 1;
+            if t.elapsed() >= MIN_RUN {
+                break img;
+            }
+        };
+        times.push(t.elapsed() / count);
+        match &first {
+            None => first = Some((img.pixels, img.rays)),
+            Some((p, _)) if *p != img.pixels => {
+                bail!("{name}: two renders of the same settings differ (a bug): {config:?}")
+            }
+            Some(_) => {}
+        }
+    }
+    let (pixels, rays) = first.ok_or_else(|| anyhow!("{name}: no render"))?;
+    Ok((median(times), pixels, rays))
+}
+
+/// Where two images first differ: `(x, y, a, b)`.
+fn first_difference(a: &[Pixel], b: &[Pixel], width: u32) -> Option<(u32, u32, Pixel, Pixel)> {
+    let w = width.max(1) as usize;
+    a.iter()
+        .zip(b)
+        .position(|(p, q)| p != q)
+        .map(|i| ((i % w) as u32, (i / w) as u32, a[i], b[i]))
+}
+
+fn errors(a: &[[f32; 3]], b: &[[f32; 3]], width: u32, height: u32) -> Errors {
+    let e = rmse(a, b);
+    Errors {
+        rmse: e,
+        psnr: psnr(e),
+        ssim: ssim(a, b, width as usize, height as usize),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Running it
+// ---------------------------------------------------------------------------------------------
+
+/// The scenes to measure, each with whether it must load: the ones given, or the demo room and
+/// every `scenes/fart/*.fart`, preferred ones first (the first two that load are used).
+fn scene_list(args: &AccuracyArgs) -> anyhow::Result<Vec<(PathBuf, bool)>> {
+    if !args.scenes.is_empty() {
+        return Ok(args.scenes.iter().map(|p| (p.clone(), true)).collect());
+    }
+    let room = PathBuf::from(DEFAULT_ROOM);
+    if !room.is_file() {
+        bail!(
+            "{DEFAULT_ROOM}: not found; run from the checkout's root folder or name scenes with \
+             --scene PATH"
+        );
+    }
+    let mut list = vec![(room, true)];
+    let mut farts: Vec<PathBuf> = std::fs::read_dir(DEFAULT_FART_DIR)
+        .map(|d| {
+            d.filter_map(Result::ok)
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|e| e == "fart"))
+                .collect()
+        })
+        .unwrap_or_default();
+    farts.sort_by_key(|p| {
+        let name = p.file_name().map(|n| n.to_string_lossy().into_owned());
+        let rank = PREFERRED_FART_SCENES
+            .iter()
+            .position(|&f| name.as_deref() == Some(f))
+            .unwrap_or(PREFERRED_FART_SCENES.len());
+        (rank, p.clone())
+    });
+    list.extend(farts.into_iter().map(|p| (p, false)));
+    Ok(list)
+}
+
+fn load(path: &Path, size: ImageSize) -> anyhow::Result<SceneDesc> {
+    let loaded = load_scene(path, &Overrides::default()).map_err(|e| anyhow!("{e}"))?;
+    let mut desc = loaded.desc;
+    desc.settings.width = size.width;
+    desc.settings.height = size.height;
+    desc.validate()
+        .map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    Ok(desc)
+}
+
+/// Measures one scene, printing its rows on stdout as they come.
+fn run_scene(
+    name: &str,
+    desc: &SceneDesc,
+    args: &AccuracyArgs,
+    cores: usize,
+    scene_index: usize,
+    rows: &mut Vec<Row>,
+) -> anyhow::Result<SceneRun> {
+    let runs = args.runs.max(1) as usize;
+    let (w, h) = (args.size.width, args.size.height);
+    let mut out = std::io::stdout().lock();
+    let baseline = RenderSettings {
+        samples: 1,
+        ..desc.settings
+    };
+    let main_ref = RenderSettings {
+        samples: REFERENCE_SAMPLES,
+        aa_threshold: -1.0,
+        min_reflection_weight: 0.0,
+        max_depth: REFERENCE_DEPTH,
+        ..baseline
+    };
+    let mut ref_settings = vec![(RefKind::Main, main_ref)];
+    let reflections_forced = !baseline.reflections;
+    if reflections_forced {
+        ref_settings.push((
+            RefKind::Reflections,
+            RenderSettings {
+                reflections: true,
+                ..main_ref
+            },
+        ));
+    }
+    ref_settings.push((
+        RefKind::Occlusion9,
+        RenderSettings {
+            ambient_occlusion: MAX_AMBIENT_OCCLUSION,
+            samples: if baseline.ambient_occlusion == MAX_AMBIENT_OCCLUSION {
+                REFERENCE_SAMPLES
+            } else {
+                OCCLUSION_REFERENCE_SAMPLES
+            },
+            ..main_ref
+        },
+    ));
+    writeln!(
+        out,
+        "\n{name}: {w}x{h}, {} triangles, {} solid objects; baseline: {}",
+        desc.triangles.len(),
+        desc.objects.len(),
+        settings_summary(&baseline)
+    )?;
+    let mut references: Vec<Reference> = Vec::new();
+    let mut ref_images: Vec<(RefKind, Colors)> = Vec::new();
+    for (i, (kind, s)) in ref_settings.iter().enumerate() {
+        // The AO-9 reference is the main one when the scene already uses level 9.
+        if let Some(j) = ref_settings[..i]
+            .iter()
+            .position(|(_, earlier)| earlier == s)
+        {
+            let colors = ref_images[j].1.clone();
+            ref_images.push((*kind, colors));
+            if let Some(r) = references.iter_mut().find(|r| r.settings == *s) {
+                r.kinds.push(*kind);
+            }
+            continue;
+        }
+        let config = Config {
+            settings: *s,
+            octree: OctreeParams::default(),
+        };
+        let (t, px, rays) = render_timed(name, desc, &config, cores, 1)?;
+        let colors = to_colors(&px);
+        // The residual: the same settings at half the samples per side.
+        let probe_samples = residual_probe_samples(s.samples);
+        let probe = Config {
+            settings: RenderSettings {
+                samples: probe_samples,
+                ..*s
+            },
+            octree: OctreeParams::default(),
+        };
+        let (probe_time, probe_px, _) = render_timed(name, desc, &probe, cores, 1)?;
+        let residual = errors(&to_colors(&probe_px), &colors, w, h);
+        writeln!(
+            out,
+            "{}: {} s, {} rays; residual (RMSE of multisample {probe_samples} against it, {} s): {}",
+            kind.name(),
+            fmt_secs(t),
+            fmt_rays(rays.total()),
+            fmt_secs(probe_time),
+            sig3(residual.rmse)
+        )?;
+        references.push(Reference {
+            kinds: vec![*kind],
+            settings: *s,
+            time: t,
+            rays,
+            probe_samples,
+            probe_time,
+            residual,
+        });
+        ref_images.push((*kind, colors));
+    }
+    let header = |out: &mut std::io::StdoutLock<'_>, time: &str| {
+        writeln!(
+            out,
+            "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  compared with",
+            "scene", "knob", "value", time, "×base", "RMSE", "PSNR", "SSIM", "rays"
+        )
+    };
+    if runs > 1 {
+        writeln!(out, "round 1 of {runs} (times of this round only):")?;
+    }
+    header(&mut out, if runs > 1 { "1st s" } else { "s" })?;
+
+    let mut measured: Vec<Measured> = Vec::new();
+    let measure = |measured: &mut Vec<Measured>, config: &Config| -> anyhow::Result<usize> {
+        if let Some(i) = measured.iter().position(|m| m.config == *config) {
+            return Ok(i);
+        }
+        let (time, pixels, rays) = render_timed(name, desc, config, cores, 1)?;
+        let image = measured
+            .iter()
+            .position(|m| m.pixels == pixels)
+            .unwrap_or(measured.len());
+        measured.push(Measured {
+            config: *config,
+            times: vec![time],
+            time,
+            colors: to_colors(&pixels),
+            pixels,
+            rays,
+            image,
+        });
+        Ok(measured.len() - 1)
+    };
+    let base_config = Config {
+        settings: baseline,
+        octree: OctreeParams::default(),
+    };
+    let base = measure(&mut measured, &base_config)?;
+    let plan = plan(&baseline, args.quick);
+    let mut mine = Vec::new();
+    for (knob, value, short, config, reference, eight_bit) in plan {
+        let i = measure(&mut measured, &config)?;
+        let m = &measured[i];
+        let b = &measured[base];
+        let errs = if reference == RefKind::Baseline {
+            if m.pixels != b.pixels {
+                let n = m
+                    .pixels
+                    .iter()
+                    .zip(&b.pixels)
+                    .filter(|(p, q)| p != q)
+                    .count();
+                let detail = first_difference(&m.pixels, &b.pixels, w).map_or_else(
+                    String::new,
+                    |(x, y, p, q)| {
+                        format!(
+                            "; first at pixel ({x}, {y}): {:?} instead of {:?}",
+                            p.0, q.0
+                        )
+                    },
+                );
+                bail!(
+                    "{name}: {} {value} (octree depth {}, leaf {}) changed {n} of {} pixels \
+                     against the default octree (depth {}, leaf {}){detail}. Octree settings \
+                     must never change the image: this is a bug.",
+                    knob.name(),
+                    config.octree.max_depth,
+                    config.octree.max_leaf_triangles,
+                    m.pixels.len(),
+                    base_config.octree.max_depth,
+                    base_config.octree.max_leaf_triangles,
+                );
+            }
+            errors(&m.colors, &b.colors, w, h)
+        } else {
+            let reference = ref_images
+                .iter()
+                .find(|(k, _)| *k == reference)
+                .map(|(_, c)| c)
+                .ok_or_else(|| anyhow!("internal error: no {} image", reference.name()))?;
+            if eight_bit {
+                errors(&to_colors(&through_8_bits(&m.pixels)), reference, w, h)
+            } else {
+                errors(&m.colors, reference, w, h)
+            }
+        };
+        let row = Row {
+            scene: scene_index,
+            knob,
+            value,
+            short,
+            measured: i,
+            eight_bit,
+            reference,
+            time: m.time,
+            ratio: m.time.as_secs_f64() / b.time.as_secs_f64().max(1e-12),
+            errors: errs,
+        };
+        stdout_row(&mut out, name, &row, m.rays.total())?;
+        mine.push(row);
+    }
+    // The other runs in rounds over every setting, so a busy spell of the machine spreads over
+    // all settings instead of spoiling one.
+    // Each round starts at another setting, so no setting always follows the same one.
+    let n = measured.len();
+    for round in 2..=runs {
+        writeln!(out, "round {round} of {runs}")?;
+        let offset = (round - 1) * n / runs;
+        for k in 0..n {
+            let m = &mut measured[(k + offset) % n];
+            let (t, pixels, _) = render_timed(name, desc, &m.config, cores, 1)?;
+            if pixels != m.pixels {
+                bail!(
+                    "{name}: two renders of the same settings differ (a bug): {:?}",
+                    m.config
+                );
+            }
+            m.times.push(t);
+        }
+    }
+    for m in &mut measured {
+        m.time = median(m.times.clone());
+    }
+    let base_time = measured[base].time.as_secs_f64().max(1e-12);
+    for r in &mut mine {
+        r.time = measured[r.measured].time;
+        r.ratio = r.time.as_secs_f64() / base_time;
+    }
+    if runs > 1 {
+        writeln!(out, "median of {runs} runs:")?;
+        header(&mut out, "median s")?;
+        for r in &mine {
+            stdout_row(&mut out, name, r, measured[r.measured].rays.total())?;
+        }
+    }
+    let b = &measured[base];
+    let quantization = errors(&to_colors(&through_8_bits(&b.pixels)), &b.colors, w, h);
+    let wire = wire_bytes(&b.pixels, w, b.rays)
+        .map_err(|e| anyhow!("{name}: cannot encode line results: {e}"))?;
+    let run = SceneRun {
+        name: name.to_string(),
+        triangles: desc.triangles.len(),
+        solids: desc.objects.len(),
+        baseline,
+        baseline_time: b.time,
+        references,
+        reflections_forced,
+        measured,
+        quantization,
+        wire,
+    };
+    rows.extend(mine);
+    Ok(run)
+}
+
+/// Runs `strahl bench accuracy`: prints the table on stdout as it goes and writes the report and
+/// its plot.
+///
+/// # Errors
+/// A scene that cannot be loaded (naming the file; default `.fart` scenes that fail are skipped
+/// with a note), a render failure, an octree setting that changes a pixel, or a report that
+/// cannot be written (naming the file).
+pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let load_start = load_average();
+    let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get);
+    let svg_path = args.out.with_extension("svg");
+    let svg_name = svg_path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .ok_or_else(|| anyhow!("{}: not a file name", args.out.display()))?;
+    // Fail before the long part if the report cannot be written.
+    let folder = match args.out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !folder.is_dir() {
+        bail!(
+            "{}: cannot write the report: no such folder {}",
+            args.out.display(),
+            folder.display()
+        );
+    }
+
+    let list = scene_list(args)?;
+    let mut skipped = Vec::new();
+    let mut scenes = Vec::new();
+    let mut rows = Vec::new();
+    println!(
+        "strahl bench accuracy: {}x{}, {} runs per setting, {cores} workers{}",
+        args.size.width,
+        args.size.height,
+        args.runs.max(1),
+        if args.quick { ", quick sweep" } else { "" }
+    );
+    let mut optional = 0;
+    for (path, required) in list {
+        if !required && optional == 2 {
+            break;
+        }
+        let desc = match load(&path, args.size) {
+            Ok(d) => d,
+            Err(e) if !required => {
+                eprintln!("skipping {}: {e}", path.display());
+                skipped.push(format!("`{}`: {e}", path.display()));
+                continue;
+            }
+            Err(e) => return Err(e),
+        };
+        optional += usize::from(!required);
+        let name = path.display().to_string();
+        let index = scenes.len();
+        scenes.push(run_scene(&name, &desc, args, cores, index, &mut rows)?);
+    }
+    let total = start.elapsed();
+
+    let panels: Vec<PlotPanel> = scenes
+        .iter()
+        .enumerate()
+        .map(|(si, sc)| {
+            // One point per render and reference: the baseline appears under several knobs.
+            let mut seen: Vec<(usize, bool, RefKind)> = Vec::new();
+            let mut points = Vec::new();
+            for r in rows.iter().filter(|r| {
+                r.scene == si && !matches!(r.knob, Knob::OctreeDepth | Knob::OctreeLeaf)
+            }) {
+                let key = (r.measured, r.eight_bit, r.reference);
+                if seen.contains(&key) {
+                    continue;
+                }
+                seen.push(key);
+                points.push(PlotPoint {
+                    time: r.time.as_secs_f64(),
+                    rmse: r.errors.rmse,
+                    knob: r.knob,
+                    label: r.short.clone(),
+                    main: r.reference == RefKind::Main,
+                });
+            }
+            PlotPanel {
+                title: sc.name.clone(),
+                points,
+            }
+        })
+        .collect();
+    let md = report(
+        args,
+        &scenes,
+        &skipped,
+        &rows,
+        cores,
+        total,
+        &svg_name,
+        &load_start,
+    );
+    let picture = svg(&panels);
+    for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
+        crate::output::write_atomically(path, |w| {
+            w.write_all(text.as_bytes())
+                .with_context(|| format!("{}: cannot write", path.display()))
+        })?;
+    }
+    println!(
+        "\nwrote {} and {} ({:.1} s)",
+        args.out.display(),
+        svg_path.display(),
+        total.as_secs_f64()
+    );
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse() {
+        assert_eq!(
+            parse_size("320x240"),
+            Ok(ImageSize {
+                width: 320,
+                height: 240
+            })
+        );
+        assert!(parse_size("320").is_err());
+        assert!(parse_size("4x4").is_err());
+        assert!(parse_size("ax3").is_err());
+    }
+}

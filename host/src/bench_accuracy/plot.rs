@@ -1,0 +1,309 @@
+//! The SVG plot of error against time, one panel per scene, with the Pareto front marked.
+
+use super::*;
+
+/// One point of the plot.
+#[derive(Clone, Debug)]
+pub struct PlotPoint {
+    /// Median time in seconds.
+    pub time: f64,
+    /// RMSE against the reference (0 is drawn on the strip below the axis).
+    pub rmse: f64,
+    /// The knob, for its colour.
+    pub knob: Knob,
+    /// Short label.
+    pub label: String,
+    /// Compared with the panel's main reference (filled, eligible for the front); hollow points
+    /// have a knob-specific reference.
+    pub main: bool,
+}
+
+/// One panel of the plot: a scene.
+#[derive(Clone, Debug)]
+pub struct PlotPanel {
+    /// The scene's name.
+    pub title: String,
+    /// Its points.
+    pub points: Vec<PlotPoint>,
+}
+
+pub(super) fn xml_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// Tick values `{1, 2, 5} × 10^k` in `[lo, hi]` (only powers of ten over a range of 100× or more).
+pub(super) fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Vec::new();
+    }
+    let mantissas: &[f64] = if hi / lo >= 100.0 {
+        &[1.0]
+    } else {
+        &[1.0, 2.0, 5.0]
+    };
+    let mut ticks = Vec::new();
+    for k in (lo.log10().floor() as i32)..=(hi.log10().ceil() as i32) {
+        for &m in mantissas {
+            let v = m * 10f64.powi(k);
+            if v >= lo * 0.999_999 && v <= hi * 1.000_001 {
+                ticks.push(v);
+            }
+        }
+    }
+    ticks
+}
+
+/// A tick label: one significant digit, no exponent.
+pub(super) fn tick_label(v: f64) -> String {
+    let mag = v.log10().floor() as i32;
+    let decimals = (-mag).max(0) as usize;
+    format!("{v:.decimals$}")
+}
+
+/// The plot as an SVG document: one panel per scene, RMSE (log) against median time (log), the
+/// Pareto front of the filled points connected by a line (`class="pareto"`).
+pub fn svg(panels: &[PlotPanel]) -> String {
+    const W: f64 = 820.0;
+    const PH: f64 = 440.0;
+    const X0: f64 = 80.0;
+    const X1: f64 = 600.0;
+    const TOP: f64 = 46.0;
+    const PLOT_H: f64 = 300.0;
+    let height = PH * panels.len().max(1) as f64 + 10.0;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{height}" viewBox="0 0 {W} {height}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="0" y="0" width="{W}" height="{height}" fill="white"/>"#
+    );
+    for (pi, panel) in panels.iter().enumerate() {
+        let oy = pi as f64 * PH;
+        let (y0, y1) = (oy + TOP, oy + TOP + PLOT_H);
+        let zero_y = y1 + 22.0;
+        let _ = writeln!(
+            s,
+            r#"<text x="{X0}" y="{}" font-size="15" font-weight="bold">{}</text>"#,
+            oy + 24.0,
+            xml_escape(&panel.title)
+        );
+        let pts: Vec<&PlotPoint> = panel
+            .points
+            .iter()
+            .filter(|p| p.time > 0.0 && p.time.is_finite() && p.rmse.is_finite())
+            .collect();
+        if pts.is_empty() {
+            let _ = writeln!(s, r#"<text x="{X0}" y="{}">no points</text>"#, y0 + 20.0);
+            continue;
+        }
+        let (tmin, tmax) = pts.iter().fold((f64::INFINITY, 0.0f64), |(a, b), p| {
+            (a.min(p.time), b.max(p.time))
+        });
+        let positive: Vec<f64> = pts.iter().map(|p| p.rmse).filter(|&e| e > 0.0).collect();
+        let (emin, emax) = if positive.is_empty() {
+            (1e-4, 1e-1)
+        } else {
+            positive
+                .iter()
+                .fold((f64::INFINITY, 0.0f64), |(a, b), &e| (a.min(e), b.max(e)))
+        };
+        let (lx0, lx1) = ((tmin / 1.25).log10(), (tmax * 1.25).log10());
+        let (ly0, ly1) = ((emin / 1.5).log10(), (emax * 1.5).log10());
+        let lx1 = if lx1 - lx0 < 0.3 { lx0 + 0.3 } else { lx1 };
+        let ly1 = if ly1 - ly0 < 0.3 { ly0 + 0.3 } else { ly1 };
+        let fx = |t: f64| X0 + (t.log10() - lx0) / (lx1 - lx0) * (X1 - X0);
+        let fy = |e: f64| {
+            if e > 0.0 {
+                y1 - (e.log10() - ly0) / (ly1 - ly0) * PLOT_H
+            } else {
+                zero_y
+            }
+        };
+        // Frame, grid and ticks.
+        let _ = writeln!(
+            s,
+            r##"<rect x="{X0}" y="{y0}" width="{}" height="{PLOT_H}" fill="none" stroke="#444"/>"##,
+            X1 - X0
+        );
+        for t in log_ticks(10f64.powf(lx0), 10f64.powf(lx1)) {
+            let x = fx(t);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{x:.1}" y1="{y0}" x2="{x:.1}" y2="{y1}" stroke="#ddd"/><text x="{x:.1}" y="{}" text-anchor="middle">{}</text>"##,
+                zero_y + 20.0,
+                tick_label(t)
+            );
+        }
+        for e in log_ticks(10f64.powf(ly0), 10f64.powf(ly1)) {
+            let y = fy(e);
+            let _ = writeln!(
+                s,
+                r##"<line x1="{X0}" y1="{y:.1}" x2="{X1}" y2="{y:.1}" stroke="#ddd"/><text x="{}" y="{:.1}" text-anchor="end">{}</text>"##,
+                X0 - 6.0,
+                y + 4.0,
+                tick_label(e)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r##"<line x1="{X0}" y1="{zero_y}" x2="{X1}" y2="{zero_y}" stroke="#bbb" stroke-dasharray="4 3"/><text x="{}" y="{}" text-anchor="end">0</text>"##,
+            X0 - 6.0,
+            zero_y + 4.0
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" text-anchor="middle">median render time, s (log scale)</text>"#,
+            (X0 + X1) / 2.0,
+            zero_y + 40.0
+        );
+        let _ = writeln!(
+            s,
+            r#"<text transform="translate({},{}) rotate(-90)" text-anchor="middle">RMSE against the reference (log scale)</text>"#,
+            X0 - 58.0,
+            (y0 + y1) / 2.0
+        );
+        // Points: hollow first, then filled.
+        for p in pts.iter().filter(|p| !p.main) {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="white" stroke="{}" stroke-width="1.5"><title>{}</title></circle>"#,
+                fx(p.time),
+                fy(p.rmse),
+                p.knob.color(),
+                xml_escape(&p.label)
+            );
+        }
+        for p in pts.iter().filter(|p| p.main) {
+            let _ = writeln!(
+                s,
+                r#"<circle cx="{:.1}" cy="{:.1}" r="4" fill="{}"><title>{}</title></circle>"#,
+                fx(p.time),
+                fy(p.rmse),
+                p.knob.color(),
+                xml_escape(&p.label)
+            );
+        }
+        // The Pareto front of the filled points.
+        let main: Vec<&PlotPoint> = pts.iter().copied().filter(|p| p.main).collect();
+        let front = pareto_front(&main.iter().map(|p| (p.time, p.rmse)).collect::<Vec<_>>());
+        if !front.is_empty() {
+            let line: Vec<String> = front
+                .iter()
+                .map(|&i| format!("{:.1},{:.1}", fx(main[i].time), fy(main[i].rmse)))
+                .collect();
+            let _ = writeln!(
+                s,
+                r#"<polyline class="pareto" points="{}" fill="none" stroke="black" stroke-width="2"/>"#,
+                line.join(" ")
+            );
+            // Labels go beside their ring where they overlap no other label; else they are left
+            // out (the report lists the whole front).
+            let mut placed: Vec<(f64, f64, f64, f64)> = Vec::new();
+            for &i in &front {
+                let (x, y) = (fx(main[i].time), fy(main[i].rmse));
+                let _ = writeln!(
+                    s,
+                    r#"<circle cx="{x:.1}" cy="{y:.1}" r="7" fill="none" stroke="black" stroke-width="1.5"/>"#
+                );
+                let label = &main[i].label;
+                let w = 6.2 * label.chars().count() as f64;
+                let h = 11.0;
+                let spots = [
+                    (x + 8.0, y - 8.0),
+                    (x + 9.0, y + 16.0),
+                    (x - 8.0 - w, y - 8.0),
+                    (x - 9.0 - w, y + 16.0),
+                ];
+                let free = spots.into_iter().find(|&(tx, ty)| {
+                    let r = (tx, ty - h, tx + w, ty);
+                    r.0 >= X0 - 30.0
+                        && r.2 <= X1 + 14.0
+                        && !placed
+                            .iter()
+                            .any(|p| r.0 < p.2 && p.0 < r.2 && r.1 < p.3 && p.1 < r.3)
+                });
+                if let Some((tx, ty)) = free {
+                    placed.push((tx, ty - h, tx + w, ty));
+                    let _ = writeln!(
+                        s,
+                        r#"<text x="{tx:.1}" y="{ty:.1}" font-size="11">{}</text>"#,
+                        xml_escape(label)
+                    );
+                }
+            }
+        }
+        // Legend.
+        let lx = X1 + 22.0;
+        let mut ly = y0 + 8.0;
+        for k in Knob::ALL {
+            if let Some(p) = pts.iter().find(|p| p.knob == k) {
+                let fill = if p.main { k.color() } else { "white" };
+                let _ = writeln!(
+                    s,
+                    r#"<circle cx="{lx}" cy="{ly}" r="4" fill="{fill}" stroke="{}" stroke-width="1.5"/><text x="{}" y="{}">{}</text>"#,
+                    k.color(),
+                    lx + 10.0,
+                    ly + 4.0,
+                    xml_escape(k.name())
+                );
+                ly += 18.0;
+            }
+        }
+        let _ = writeln!(
+            s,
+            r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="black" stroke-width="2"/><text x="{}" y="{}">Pareto front</text>"#,
+            lx - 6.0,
+            lx + 6.0,
+            lx + 10.0,
+            ly + 4.0
+        );
+        ly += 18.0;
+        if pts.iter().any(|p| !p.main) {
+            for line in ["hollow: own reference", "(not on the front)"] {
+                let _ = writeln!(
+                    s,
+                    r##"<text x="{}" y="{}" fill="#555">{line}</text>"##,
+                    lx - 6.0,
+                    ly + 4.0
+                );
+                ly += 16.0;
+            }
+        }
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn svg_has_the_front() {
+        let p = |time, rmse, main| PlotPoint {
+            time,
+            rmse,
+            knob: Knob::Multisample,
+            label: format!("m{time}"),
+            main,
+        };
+        let s = svg(&[PlotPanel {
+            title: "a <scene>".into(),
+            points: vec![
+                p(1.0, 0.1, true),
+                p(2.0, 0.2, true),
+                p(4.0, 0.01, true),
+                p(3.0, 0.0, false),
+            ],
+        }]);
+        assert!(s.starts_with("<svg"));
+        assert!(s.contains("<polyline class=\"pareto\""));
+        assert!(s.contains("a &lt;scene&gt;"));
+        assert!(s.trim_end().ends_with("</svg>"));
+    }
+}
