@@ -41,6 +41,11 @@ pub struct Link {
     pub writer: Box<dyn Write + Send>,
     /// Cuts the link: blocked reads and writes return.
     pub closer: Box<dyn Fn() + Send + Sync>,
+    /// Ends the master's side after its last frame, while the worker's frames can still be read
+    /// until the worker closes its end. Over TCP this shuts down writing only: a socket closed
+    /// with unread data sends a reset, which can destroy the worker's last unread frame (the
+    /// `EndSession` it is waiting for).
+    pub hang_up: Box<dyn Fn() + Send + Sync>,
 }
 
 impl fmt::Debug for Link {
@@ -56,6 +61,7 @@ impl Link {
     /// A link over the master's end of an in-process pipe.
     pub fn from_pipe(address: String, end: PipeEnd) -> Self {
         let closer = end.closer();
+        let hang_up = end.closer();
         let (reader, writer) = end.split();
         Link {
             address,
@@ -63,6 +69,8 @@ impl Link {
             reader: Box::new(reader),
             writer: Box::new(writer),
             closer: Box::new(move || closer.close()),
+            // In-process pipes keep what was written until it is read: closing is graceful.
+            hang_up: Box::new(move || hang_up.close()),
         }
     }
 
@@ -74,6 +82,7 @@ impl Link {
         stream.set_nodelay(true)?;
         let reader = stream.try_clone()?;
         let closer = stream.try_clone()?;
+        let hang_up = stream.try_clone()?;
         Ok(Link {
             address,
             kind: LinkKind::Tcp,
@@ -81,6 +90,9 @@ impl Link {
             writer: Box::new(stream),
             closer: Box::new(move || {
                 let _ = closer.shutdown(std::net::Shutdown::Both);
+            }),
+            hang_up: Box::new(move || {
+                let _ = hang_up.shutdown(std::net::Shutdown::Write);
             }),
         })
     }
@@ -97,6 +109,7 @@ impl Link {
         let reader = port.try_clone_native()?;
         let closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let flag = std::sync::Arc::clone(&closed);
+        let hang_up_flag = std::sync::Arc::clone(&closed);
         Ok(Link {
             address,
             kind: LinkKind::Serial,
@@ -106,6 +119,10 @@ impl Link {
             }),
             writer: Box::new(port),
             closer: Box::new(move || flag.store(true, std::sync::atomic::Ordering::Relaxed)),
+            // A serial line has no reset: the worker reads what was sent whatever the master does.
+            hang_up: Box::new(move || {
+                hang_up_flag.store(true, std::sync::atomic::Ordering::Relaxed);
+            }),
         })
     }
 }

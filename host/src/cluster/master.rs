@@ -284,23 +284,34 @@ impl Outbox {
     }
 }
 
-/// The writer thread: queued frames go out until the queue closes or the worker is dropped;
-/// then the link is cut.
+/// How a link ends when its writer thread stops.
+struct Ending<'a> {
+    /// After the last queued frame (the session is over): the master's side only.
+    hang_up: &'a (dyn Fn() + Send + Sync),
+    /// After a failed write or when the worker is dropped: the whole link.
+    cut: &'a (dyn Fn() + Send + Sync),
+}
+
+/// The writer thread: queued frames go out until the queue closes (then the master hangs up its
+/// side) or the worker is dropped or a write fails (then the link is cut).
 fn write_loop(
     id: usize,
     mut writer: Box<dyn Write + Send>,
     frames: &Receiver<Outgoing>,
     outbox: &Outbox,
     events: &Sender<Event>,
-    closer: &(dyn Fn() + Send + Sync),
+    ending: &Ending<'_>,
     done: &Sender<usize>,
 ) {
+    let mut graceful = true;
     for Outgoing { frame, chunk } in frames {
         if outbox.cut.load(Ordering::Relaxed) {
+            graceful = false;
             break;
         }
         if let Err(e) = writer.write_all(&frame).and_then(|()| writer.flush()) {
             let _ = events.send(Event::Closed(id, format!("write failed: {e}")));
+            graceful = false;
             break;
         }
         outbox.queued.fetch_sub(frame.len(), Ordering::Relaxed);
@@ -311,7 +322,11 @@ fn write_loop(
                 .unwrap_or_else(|e| e.into_inner()) = Instant::now();
         }
     }
-    closer();
+    if graceful {
+        (ending.hang_up)();
+    } else {
+        (ending.cut)();
+    }
     let _ = done.send(id);
 }
 
@@ -470,7 +485,7 @@ pub fn run_master(
             break;
         }
     }
-    m.finish()
+    m.finish(&events)
 }
 
 impl Master<'_> {
@@ -488,6 +503,7 @@ impl Master<'_> {
             .is_ok();
         let events = self.events_tx.clone();
         let writer = link.writer;
+        let hang_up = link.hang_up;
         let thread_closer = Arc::clone(&closer);
         let done = self.writers_done_tx.clone();
         let now = Instant::now();
@@ -506,7 +522,10 @@ impl Master<'_> {
                     &rx,
                     &thread_outbox,
                     &events,
-                    &*thread_closer,
+                    &Ending {
+                        hang_up: &*hang_up,
+                        cut: &*thread_closer,
+                    },
                     &done,
                 );
             })
@@ -965,7 +984,7 @@ impl Master<'_> {
         }
     }
 
-    fn finish(mut self) -> Result<ClusterImage, ClusterError> {
+    fn finish(mut self, events: &Receiver<Event>) -> Result<ClusterImage, ClusterError> {
         let mut live = 0;
         for id in 0..self.slots.len() {
             if self.slots[id].state != State::Gone {
@@ -990,9 +1009,24 @@ impl Master<'_> {
                 Err(_) => break,
             }
         }
-        // A writer stuck on a dead link: cut the link so its threads end.
+        // Then read until each worker that got `EndSession` closes its end (what it still sends
+        // is dropped): a socket closed while the worker's frames sit unread in it would reset
+        // the connection, and the worker could lose `EndSession` and report a failed session.
+        let mut open = finished.clone();
+        while !open.is_empty() {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match events.recv_timeout(left) {
+                Ok(Event::Closed(id, _)) => {
+                    open.remove(&id);
+                }
+                Ok(_) => {}
+                Err(_) => break,
+            }
+        }
+        // A writer stuck on a dead link, or a worker that does not close: cut the link so its
+        // threads end.
         for (id, slot) in self.slots.iter().enumerate() {
-            if slot.state != State::Gone && !finished.contains(&id) {
+            if slot.state != State::Gone && (!finished.contains(&id) || open.contains(&id)) {
                 slot.outbox.cut.store(true, Ordering::Relaxed);
                 (slot.closer)();
             }
