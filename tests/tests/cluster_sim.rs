@@ -291,6 +291,7 @@ fn held(link: Link, gate: &Arc<Gate>) -> Link {
         reader,
         writer,
         closer,
+        hang_up,
     } = link;
     Link {
         address,
@@ -302,6 +303,7 @@ fn held(link: Link, gate: &Arc<Gate>) -> Link {
         }),
         writer,
         closer,
+        hang_up,
     }
 }
 
@@ -387,6 +389,7 @@ fn spied_holding(link: Link, hold: Option<Hold>) -> (Link, Arc<Spy>) {
         reader,
         writer,
         closer,
+        hang_up,
     } = link;
     let link = Link {
         address,
@@ -399,6 +402,7 @@ fn spied_holding(link: Link, hold: Option<Hold>) -> (Link, Arc<Spy>) {
             hold,
         }),
         closer,
+        hang_up,
     };
     (link, spy)
 }
