@@ -7,9 +7,13 @@
 //! in order and keeps the parts where the operation says "inside".
 //!
 //! Boundaries of the two operands that coincide within their error bounds (shared faces, shared
-//! edges) must not leave slivers: after the sweep, spans shorter than the error bounds of both
-//! ends are dropped and gaps narrower than that are closed. So a union of two boxes that share a face has no
-//! inner wall, and an intersection of two boxes that only touch is empty.
+//! edges) must not leave slivers or walls. The sweep crosses such a cluster of boundaries as one
+//! step, so only the state before and after it counts; where the composite begins or ends at a
+//! cluster, its surface is a boundary that is not an inner wall between the operands (one whose
+//! normal is opposite to a boundary of the other operand moving the composite the other way).
+//! Spans and gaps still shorter than both neighbouring ends' error bounds are then dropped or
+//! closed. So a union of two boxes that share a face has no inner wall, even for a ray through
+//! the edge of that face, and an intersection of two boxes that only touch is empty.
 
 use super::CsgOp;
 use alloc::vec::Vec;
