@@ -2,13 +2,16 @@
 //! `A − B`, hit points on the exact surface within their error bound, the octree against brute
 //! force, and secondary rays that never re-hit the surface they leave.
 
+mod common;
+
+use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use strahl_core::intersect::PrimitiveHit;
 use strahl_core::octree::OctreeParams;
 use strahl_core::ray::{offset_ray_origin, Ray};
 use strahl_core::scene::{Light, Scene, SceneDesc, Shader};
-use strahl_core::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
+use strahl_core::solid::prepared::{SolidHit, SpanScratch};
 use strahl_core::solid::{CsgOp, Shape, SolidNode};
 use strahl_core::transform::Transform;
 use strahl_host::generate::Rng;
@@ -67,37 +70,6 @@ fn scene(solids: Vec<SolidNode>, objects: Vec<u32>, shaders: usize) -> Scene {
         ..SceneDesc::default()
     };
     Scene::build(&desc, &OctreeParams::default()).expect("valid scene")
-}
-
-/// The closest solid hit of a ray and its surface.
-#[derive(Clone, Copy, Debug)]
-struct Found {
-    object: u32,
-    hit: SolidHit,
-    surface: SolidSurface,
-}
-
-fn closest(scene: &Scene, ray: &Ray) -> Option<Found> {
-    let mut scratch = SpanScratch::default();
-    match scene.closest_hit(ray, f32::INFINITY, &mut scratch)? {
-        PrimitiveHit::Solid(object, hit) => Some(Found {
-            object,
-            hit,
-            surface: scene.solids.surface(ray, &hit),
-        }),
-        PrimitiveHit::Triangle(..) => panic!("these scenes have no triangles"),
-    }
-}
-
-/// The ray continued past a hit: origin offset off the surface to the side the ray goes on.
-fn continue_past(ray: &Ray, f: &Found) -> Ray {
-    let o = offset_ray_origin(
-        f.surface.point,
-        f.surface.point_error,
-        f.surface.normal,
-        ray.dir,
-    );
-    Ray::new(o, ray.dir)
 }
 
 /// The local frames the CSG tests run in: the world frame (shared faces meet exactly) and a

@@ -10,6 +10,9 @@
 //! the pixel `render_line` produced). Expected pixels come from a small `f64` reference
 //! ([`Reference`]) that leaves out pixels within a margin of an edge or a shadow boundary.
 
+mod common;
+
+use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use std::collections::HashMap;
@@ -24,9 +27,7 @@ use strahl_core::optics::reflect;
 use strahl_core::pixel::Pixel;
 use strahl_core::ray::{offset_ray_origin, Ray};
 use strahl_core::render::render_line;
-use strahl_core::sampling::{mix, pixel_seed};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
-use strahl_core::shade::{trace, RayCounts, TraceScratch};
 use strahl_core::solid::prepared::SpanScratch;
 use strahl_core::solid::{Shape, SolidNode};
 use strahl_core::transform::Transform;
@@ -295,71 +296,6 @@ fn quad(c: [Vec3; 4]) -> [[Vec3; 3]; 2] {
 // ---------------------------------------------------------------------------------------------
 // Rendering
 // ---------------------------------------------------------------------------------------------
-
-/// A rendered image: the pixels of `render_line`, the centre rays' colours before quantisation,
-/// and the rays traced.
-struct Rendered {
-    width: usize,
-    pixels: Vec<Pixel>,
-    colors: Vec<Vec3>,
-    counts: RayCounts,
-}
-
-impl Rendered {
-    fn at(&self, x: usize, y: usize) -> Pixel {
-        self.pixels[y * self.width + x]
-    }
-}
-
-/// Renders every line of `scene` (one sample per pixel) and traces every pixel's centre ray
-/// again to check its colour is finite and is what the pixel holds.
-fn render(scene: &Scene) -> Rendered {
-    let s = &scene.settings;
-    assert_eq!(s.samples, 1, "the colour check traces one ray per pixel");
-    let (w, h) = (s.width, s.height);
-    let mut pixels = vec![Pixel::default(); (w * h) as usize];
-    let mut counts = RayCounts::default();
-    for (y, line) in pixels.chunks_mut(w as usize).enumerate() {
-        counts += render_line(scene, y as u32, line).expect("line renders");
-    }
-    let mut colors = Vec::with_capacity(pixels.len());
-    let mut scratch = TraceScratch::default();
-    let mut again = RayCounts::default();
-    for y in 0..h {
-        for x in 0..w {
-            let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let c = trace(
-                scene,
-                ray,
-                mix(pixel_seed(x, y), 0),
-                &mut scratch,
-                &mut again,
-            );
-            assert!(
-                c.is_finite(),
-                "pixel ({x}, {y}): colour {c:?} is not finite"
-            );
-            assert_eq!(
-                Pixel::from_color(c),
-                pixels[(y * w + x) as usize],
-                "pixel ({x}, {y}): the centre ray's colour is not the rendered pixel"
-            );
-            colors.push(c);
-        }
-    }
-    assert_eq!(again.total(), counts.total() - counts.primary);
-    Rendered {
-        width: w as usize,
-        pixels,
-        colors,
-        counts,
-    }
-}
-
-/// The centre ray of pixel `(x, y)`.
-fn pixel_ray(scene: &Scene, x: usize, y: usize) -> Ray {
-    scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5)
-}
 
 fn background_pixel() -> Pixel {
     Pixel::from_color(BACKGROUND)

@@ -18,17 +18,16 @@
 //! Colours are checked before quantisation: every render also traces each pixel's centre ray
 //! itself and asserts the colour is finite ([`Pixel`] would turn NaN into 0).
 
+mod common;
+
+use common::*;
 use glam::{Mat3, Vec3};
 use strahl_core::camera::{Camera, SeedCamera};
-use strahl_core::intersect::PrimitiveHit;
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
-use strahl_core::ray::{offset_ray_origin, Ray};
-use strahl_core::render::render_line;
-use strahl_core::sampling::{mix, pixel_seed};
+use strahl_core::ray::Ray;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
 use strahl_core::shade::{trace, RayCounts, TraceScratch};
-use strahl_core::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
 use strahl_core::solid::shape::{self, ShapeSpan};
 use strahl_core::solid::{CsgOp, Shape, SolidNode};
 use strahl_core::transform::Transform;
@@ -175,35 +174,6 @@ fn object_scene(solids: Vec<SolidNode>) -> Scene {
     )
 }
 
-/// The closest solid hit of a ray and its surface.
-#[derive(Clone, Copy, Debug)]
-struct Found {
-    hit: SolidHit,
-    surface: SolidSurface,
-}
-
-fn closest(scene: &Scene, ray: &Ray) -> Option<Found> {
-    let mut scratch = SpanScratch::default();
-    match scene.closest_hit(ray, f32::INFINITY, &mut scratch)? {
-        PrimitiveHit::Solid(_, hit) => Some(Found {
-            hit,
-            surface: scene.solids.surface(ray, &hit),
-        }),
-        PrimitiveHit::Triangle(..) => panic!("these scenes have no triangles"),
-    }
-}
-
-/// The ray continued past a hit: origin offset off the surface to the side the ray goes on.
-fn continue_past(ray: &Ray, f: &Found) -> Ray {
-    let o = offset_ray_origin(
-        f.surface.point,
-        f.surface.point_error,
-        f.surface.normal,
-        ray.dir,
-    );
-    Ray::new(o, ray.dir)
-}
-
 /// Asserts that every number of a hit is finite and the normal has unit length.
 fn assert_finite(f: &Found, at: &str) {
     let s = &f.surface;
@@ -236,67 +206,6 @@ fn traced(scene: &Scene, ray: Ray, at: &str) -> Vec3 {
 // ---------------------------------------------------------------------------------------------
 // Rendering
 // ---------------------------------------------------------------------------------------------
-
-/// A rendered image: the pixels of `render_line` and the centre rays' colours before
-/// quantisation.
-struct Rendered {
-    width: usize,
-    pixels: Vec<Pixel>,
-    colors: Vec<Vec3>,
-}
-
-impl Rendered {
-    fn at(&self, x: usize, y: usize) -> Pixel {
-        self.pixels[y * self.width + x]
-    }
-}
-
-/// Renders every line of `scene` (one sample per pixel) and traces every pixel's centre ray
-/// again to check its colour is finite and is what the pixel holds.
-fn render(scene: &Scene) -> Rendered {
-    let s = &scene.settings;
-    assert_eq!(s.samples, 1, "the colour check traces one ray per pixel");
-    let (w, h) = (s.width, s.height);
-    let mut pixels = vec![Pixel::default(); (w * h) as usize];
-    for (y, line) in pixels.chunks_mut(w as usize).enumerate() {
-        render_line(scene, y as u32, line).expect("line renders");
-    }
-    let mut colors = Vec::with_capacity(pixels.len());
-    let mut scratch = TraceScratch::default();
-    let mut counts = RayCounts::default();
-    for y in 0..h {
-        for x in 0..w {
-            let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
-            let c = trace(
-                scene,
-                ray,
-                mix(pixel_seed(x, y), 0),
-                &mut scratch,
-                &mut counts,
-            );
-            assert!(
-                c.is_finite(),
-                "pixel ({x}, {y}): colour {c:?} is not finite"
-            );
-            assert_eq!(
-                Pixel::from_color(c),
-                pixels[(y * w + x) as usize],
-                "pixel ({x}, {y}): the centre ray's colour is not the rendered pixel"
-            );
-            colors.push(c);
-        }
-    }
-    Rendered {
-        width: w as usize,
-        pixels,
-        colors,
-    }
-}
-
-/// The centre ray of pixel `(x, y)`.
-fn pixel_ray(scene: &Scene, x: usize, y: usize) -> Ray {
-    scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5)
-}
 
 // ---------------------------------------------------------------------------------------------
 // An f64 reference for axis-aligned solids
