@@ -3,49 +3,39 @@
 //! The crate is `#![no_std]` (it uses `alloc`) so the same code renders on a laptop, a cluster node
 //! and a microcontroller on a serial link. It touches no files, sockets, threads or clocks.
 //!
-//! It reads in layers, each using only the ones above it:
-//! - [`float`]: floating-point error bounds (`gamma`, next representable values) that replace
-//!   magic epsilons everywhere below.
-//! - [`ray`], [`aabb`]: rays, their origin offsetting, and the robust slab test.
-//! - [`triangle`]: the watertight ray/triangle test that reports `t` with its error bound.
-//! - [`transform`], [`solid`]: analytic shapes placed by affine transforms, and CSG on them.
-//! - [`scene`]: the scene model (points, triangles, shaders, lights, camera, settings) and
-//!   [`scene::Scene`], the prepared form with smooth vertex normals and the octree.
-//! - [`octree`]: an arena octree (flat node array, `u32` handles) with closest-hit and any-hit queries.
-//! - [`intersect`]: the scene's closest-hit and any-hit queries over triangles and solids.
-//! - [`camera`]: the seed's camera (position, tilt, turn, zoom) and FART's look-at camera.
-//! - [`sampling`], [`optics`]: deterministic sample patterns; reflection and Snell refraction.
-//! - [`effects`]: which effects can change a pixel of a scene, derived before rendering.
-//! - [`shade`]: Phong shading, shadows, reflection and refraction with the 10% cut-off, ambient
-//!   occlusion.
-//! - [`pixel`]: fixed-point pixels and the one place where colours are clamped and quantised.
-//! - [`render`]: [`render::render_line`], the unit of work every executor calls.
-//! - [`protocol`]: the wire protocol (frames, messages, scene transfer) and the worker loop that
-//!   serves it over any `embedded_io` link.
-//! - [`error`]: the small `Copy` error enums.
+//! It reads in layers, bottom up; each uses only the layers listed before it (a CI step,
+//! `.ci/layers`, fails when a module imports from a later layer):
+//! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
+//! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule.
+//! 3. [`accel`]: the arena octree over triangles and bounded solids.
+//! 4. [`scene`]: the scene model loaders fill in, render settings and their limits, cameras,
+//!    which effects can change a pixel, validation, and the prepared [`scene::Scene`].
+//! 5. [`render`]: scene queries, optics, sampling, shading, pixels, ray statistics,
+//!    [`render::render_line`] (the unit of work every executor calls), adaptive multisampling's
+//!    second pass and [`render::render_image`].
+//! 6. [`wire`]: the wire protocol, pure: frames, the two message enums, scene transfer, limits.
+//! 7. [`worker`]: the worker loop that serves the wire protocol over any `embedded_io` link,
+//!    building scenes and rendering lines.
+//!
+//! Each layer has its own small `Copy` error enum beside its code: [`scene::error::SceneError`],
+//! [`render::error::RenderError`], [`wire::error::ProtocolError`].
 #![no_std]
 #![forbid(unsafe_code)]
 
 extern crate alloc;
 
-pub mod aabb;
-pub mod adaptive;
-pub mod camera;
-pub mod effects;
-pub mod error;
-pub mod float;
-pub mod intersect;
-pub mod octree;
-pub mod optics;
-pub mod pixel;
-pub mod protocol;
-pub mod ray;
-pub mod render;
-pub mod sampling;
+pub mod math;
+
+pub mod geom;
+
+pub mod accel;
+
 pub mod scene;
-pub mod shade;
-pub mod solid;
-pub mod transform;
-pub mod triangle;
+
+pub mod render;
+
+pub mod wire;
+
+pub mod worker;
 
 pub use glam::Vec3;

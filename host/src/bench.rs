@@ -8,8 +8,8 @@
 use crate::generate;
 use std::io::Write as _;
 use std::time::{Duration, Instant};
-use strahl_core::octree::{Octree, OctreeParams};
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::{Octree, OctreeParams};
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::{RenderSettings, Scene};
 
@@ -45,7 +45,7 @@ pub struct BenchReport {
     /// Median octree build time.
     pub build: Duration,
     /// Octree statistics of the last build.
-    pub stats: strahl_core::octree::OctreeStats,
+    pub stats: strahl_core::accel::octree::OctreeStats,
     /// Median primary rays per second, one core, closest hit only.
     pub primary_rays_per_s: f64,
     /// Median rays (all kinds) per second of a full render on one core.
@@ -62,9 +62,9 @@ fn median(mut v: Vec<Duration>) -> Duration {
 /// Runs the benchmark.
 ///
 /// # Errors
-/// A [`SceneError`](strahl_core::error::SceneError) if the generated scene is invalid for the
+/// A [`SceneError`](strahl_core::scene::error::SceneError) if the generated scene is invalid for the
 /// options (it is not for any options the command line accepts).
-pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::error::SceneError> {
+pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error::SceneError> {
     let mut desc = generate::large(opts.triangles);
     desc.settings = RenderSettings {
         width: opts.size,

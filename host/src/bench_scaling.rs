@@ -23,8 +23,8 @@ use std::io::{BufRead as _, BufReader, Write as _};
 use std::num::NonZeroUsize;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::RenderSettings;
 

@@ -19,8 +19,8 @@ use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
-use strahl_core::error::SceneError;
-use strahl_core::octree::OctreeParams;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 /// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.

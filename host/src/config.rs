@@ -4,7 +4,7 @@ use crate::error::LoadError;
 use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::SeedCamera;
+use strahl_core::scene::camera::SeedCamera;
 use strahl_core::scene::MAX_IMAGE_SIDE;
 
 /// Everything a configuration file sets, with the documented defaults for what it leaves out.

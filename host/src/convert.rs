@@ -34,7 +34,7 @@ use std::collections::HashMap;
 use std::fmt;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::{Camera, SeedCamera};
+use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// The image size the written `raytracer.cfg` asks for.

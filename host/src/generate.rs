@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use std::fmt::Write as _;
-use strahl_core::camera::{Camera, SeedCamera};
+use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// A small deterministic random generator (xorshift64*), for scenes and tests.

@@ -9,7 +9,7 @@ use crate::config::read_config;
 use crate::datafile::read_data;
 use crate::error::LoadError;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::Camera;
+use strahl_core::scene::camera::Camera;
 use strahl_core::scene::{
     RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };

@@ -7,8 +7,8 @@
 //! scene held before.
 
 use crate::obj::ObjMesh;
+use strahl_core::math::transform::{Placement, Transform};
 use strahl_core::scene::{SceneDesc, TriangleDesc};
-use strahl_core::transform::{Placement, Transform};
 
 /// Appends `mesh`, placed by `transform`, to `desc`, with `shader` for every triangle.
 ///

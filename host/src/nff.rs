@@ -27,10 +27,10 @@ use crate::lines::read_text;
 use glam::{Mat3, Quat, Vec3};
 use std::fmt;
 use std::path::Path;
-use strahl_core::camera::{Camera, LookAtCamera};
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::transform::Transform;
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
-use strahl_core::solid::{Shape, SolidNode};
-use strahl_core::transform::Transform;
 
 /// Reads the NFF file at `path` into a validated scene.
 ///

@@ -9,7 +9,7 @@
 use anyhow::{bail, Context as _};
 use std::io::{BufWriter, Write as _};
 use std::path::{Path, PathBuf};
-use strahl_core::pixel::Pixel;
+use strahl_core::render::pixel::Pixel;
 
 /// The image file formats the renderer writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

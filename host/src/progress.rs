@@ -7,7 +7,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
-use strahl_core::shade::RayCounts;
+use strahl_core::render::stats::RayCounts;
 
 /// Progress of a render, safe to update from many worker threads.
 #[derive(Debug)]

@@ -4,8 +4,8 @@ use crate::progress::format_ray_rate;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
-use strahl_core::octree::OctreeStats;
-use strahl_core::shade::RayCounts;
+use strahl_core::accel::octree::OctreeStats;
+use strahl_core::render::stats::RayCounts;
 
 /// Everything the closing line of a render reports.
 #[derive(Clone, Debug)]
@@ -101,7 +101,7 @@ pub struct RenderStats {
     /// Solid objects in the scene.
     pub solids: usize,
     /// The effects the scene calls for (derived before rendering).
-    pub effects: strahl_core::effects::Effects,
+    pub effects: strahl_core::scene::effects::Effects,
     /// Rays by kind, and their sum.
     pub rays: StatsRays,
     /// One entry per worker.
@@ -156,7 +156,7 @@ impl RenderStats {
     pub fn new(
         summary: &RenderSummary,
         samples: u32,
-        effects: strahl_core::effects::Effects,
+        effects: strahl_core::scene::effects::Effects,
         workers: &[crate::cluster::report::WorkerReport],
     ) -> RenderStats {
         RenderStats {

@@ -9,8 +9,8 @@ use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
 use std::net::TcpListener;
 use std::time::Duration;
-use strahl_core::protocol::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
-use strahl_core::protocol::MAX_NAME_LEN;
+use strahl_core::wire::MAX_NAME_LEN;
+use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 use strahl_tcp::SessionError;
 
 /// Arguments of `strahl worker`.
@@ -87,7 +87,7 @@ fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
         Err(WorkerError::VersionMismatch { master }) => format!(
             "the master speaks protocol version {master}, this worker speaks version {}; \
              session refused",
-            strahl_core::protocol::PROTOCOL_VERSION
+            strahl_core::wire::PROTOCOL_VERSION
         ),
         Err(WorkerError::Link(e)) => format!("the link failed: {e:?}"),
         Err(WorkerError::Encode(e)) => format!("internal error: {e}"),

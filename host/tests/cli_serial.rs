@@ -20,11 +20,11 @@ use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex};
 use std::thread::{self, JoinHandle};
 use std::time::{Duration, Instant};
-use strahl_core::octree::OctreeParams;
-use strahl_core::protocol::frame::{FrameReader, FrameWriter, ReadEvent};
-use strahl_core::protocol::message::{Hello, MasterMessage};
-use strahl_core::protocol::worker::{NodeInfo, SceneCache};
-use strahl_core::protocol::{MAX_MASTER_FRAME_LEN, PROTOCOL_VERSION};
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::wire::frame::{FrameReader, FrameWriter, ReadEvent};
+use strahl_core::wire::message::{Hello, MasterMessage};
+use strahl_core::wire::{MAX_MASTER_FRAME_LEN, PROTOCOL_VERSION};
+use strahl_core::worker::{NodeInfo, SceneCache};
 use strahl_host::cluster::link::{Link, LinkKind};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::master::{run_master, ClusterImage, MasterOptions};
@@ -842,7 +842,7 @@ fn noisy_cable_both_ways_gives_the_clean_image() -> TestResult {
     let dir = scene_dir(&big_data(1000))?;
     let prepared = prepare(dir.path())?;
     assert!(
-        prepared.blob.len() > 2 * strahl_core::protocol::SCENE_WINDOW,
+        prepared.blob.len() > 2 * strahl_core::wire::SCENE_WINDOW,
         "the scene spans several windows: {} bytes",
         prepared.blob.len()
     );

@@ -26,9 +26,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
-use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
-use strahl_core::protocol::message::{Hello, MasterMessage, WorkerMessage};
-use strahl_core::protocol::{MAX_FRAME_LEN, PROTOCOL_VERSION};
+use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::message::{Hello, MasterMessage, WorkerMessage};
+use strahl_core::wire::{MAX_FRAME_LEN, PROTOCOL_VERSION};
 
 type TestResult = Result<(), Box<dyn Error>>;
 

@@ -43,7 +43,7 @@ fn seed_example_loads() {
         ),
         (4, 2, 1, 1)
     );
-    let strahl_core::camera::Camera::Seed(cam) = d.camera else {
+    let strahl_core::scene::camera::Camera::Seed(cam) = d.camera else {
         panic!("a seed scene has the seed's camera: {:?}", d.camera);
     };
     assert_eq!(cam.position, Vec3::new(0.0, -100.0, 25.0));
@@ -186,7 +186,7 @@ fn fart_options_apply_to_seed_scenes() {
         ),
         (200, 300, 3, 2, 4)
     );
-    let strahl_core::camera::Camera::Seed(cam) = s.desc.camera else {
+    let strahl_core::scene::camera::Camera::Seed(cam) = s.desc.camera else {
         panic!("seed camera expected");
     };
     // 90° vertical over an image 1.5 times as tall as wide: zoom = 1.5 / tan(45°).

@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use strahl_core::camera::SeedCamera;
+use strahl_core::scene::camera::SeedCamera;
 use strahl_host::config::{parse_config, read_config, Config};
 use strahl_host::error::LoadError;
 

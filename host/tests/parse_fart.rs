@@ -3,13 +3,13 @@
 //! scene in `scenes/fart/` loads and renders.
 
 use std::path::{Path, PathBuf};
-use strahl_core::camera::Camera;
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::scene::camera::Camera;
 use strahl_core::scene::{Scene, SceneDesc, Shader};
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 use strahl_core::Vec3;
 use strahl_host::error::LoadError;
 use strahl_host::fart::{load_fart, load_fart_source};

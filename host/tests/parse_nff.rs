@@ -4,13 +4,13 @@
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use strahl_core::camera::{Camera, LookAtCamera};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, Scene, SceneDesc, TriangleDesc};
-use strahl_core::solid::{Shape, SolidNode};
-use strahl_core::transform::Transform;
 use strahl_host::error::LoadError;
 use strahl_host::nff::{cone_transform, load_nff, parse_nff, shader_from_nff};
 

@@ -3,12 +3,12 @@
 
 use glam::{Mat3, Vec3};
 use std::path::{Path, PathBuf};
-use strahl_core::camera::Camera;
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::math::transform::Transform;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::scene::camera::Camera;
 use strahl_core::scene::{Scene, SceneDesc, TriangleDesc};
-use strahl_core::transform::Transform;
 use strahl_host::convert::{convert_obj, convert_obj_with, y_up_to_z_up, ConvertOptions};
 use strahl_host::error::LoadError;
 use strahl_host::load::{load_config_scene, Overrides};

@@ -7,13 +7,13 @@ mod common;
 use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
-use strahl_core::intersect::PrimitiveHit;
-use strahl_core::octree::OctreeParams;
-use strahl_core::ray::{offset_ray_origin, Ray};
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::prepared::{SolidHit, SpanScratch};
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::intersect::PrimitiveHit;
 use strahl_core::scene::{Light, Scene, SceneDesc, Shader};
-use strahl_core::solid::prepared::{SolidHit, SpanScratch};
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 use strahl_host::generate::Rng;
 
 // ---------------------------------------------------------------------------------------------
@@ -991,7 +991,8 @@ fn check_no_self_hit(shape: Shape, scale: f32, seed: u64) -> usize {
         // Outward (reflection-like) directions: a convex solid is never hit again.
         let mut out = vec![reflect(d, n)];
         let mut inward =
-            vec![strahl_core::optics::refract(d, n, 1.0, 1.5).expect("entering never reflects")];
+            vec![strahl_core::render::optics::refract(d, n, 1.0, 1.5)
+                .expect("entering never reflects")];
         for _ in 0..3 {
             let w = rng.direction();
             if w.dot(n) > 1e-3 {

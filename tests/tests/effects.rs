@@ -9,15 +9,15 @@
 //! `v = (h − 2y − 1)/w`.
 
 use glam::Vec3;
-use strahl_core::adaptive::{edge_mask, mask_len, merge_refined, refine_line};
-use strahl_core::camera::{Camera, LookAtCamera};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::adaptive::{edge_mask, mask_len, merge_refined, refine_line};
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
 use strahl_core::render::{render_image, render_line};
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
-use strahl_core::shade::RayCounts;
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 
 /// Image size of the small crafted scenes.
 const W: u32 = 16;

@@ -5,7 +5,7 @@
 //! -- --nocapture`, look at the new image, and update the constant in the same commit.
 
 use std::path::Path;
-use strahl_core::octree::OctreeParams;
+use strahl_core::accel::octree::OctreeParams;
 use strahl_core::scene::SceneDesc;
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;

@@ -22,15 +22,16 @@ mod common;
 
 use common::*;
 use glam::{Mat3, Vec3};
-use strahl_core::camera::{Camera, SeedCamera};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
-use strahl_core::ray::Ray;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::shape::{self, ShapeSpan};
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::ray::Ray;
+use strahl_core::math::transform::Transform;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::shade::{trace, TraceScratch};
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_core::shade::{trace, RayCounts, TraceScratch};
-use strahl_core::solid::shape::{self, ShapeSpan};
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 use strahl_host::generate::Rng;
 
 // ---------------------------------------------------------------------------------------------

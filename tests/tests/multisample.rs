@@ -2,14 +2,14 @@
 //! counts, antialiased edges, and darkened corners.
 
 use glam::Vec3;
-use strahl_core::camera::{Camera, LookAtCamera};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_image;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_core::shade::RayCounts;
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
 

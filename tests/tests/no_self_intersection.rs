@@ -3,9 +3,9 @@
 //! epsilon.
 
 use glam::Vec3;
-use strahl_core::octree::{Octree, OctreeParams};
-use strahl_core::ray::{offset_ray_origin, Ray};
-use strahl_core::triangle::{area_normal, hit_point, intersect, RayFrame};
+use strahl_core::accel::octree::{Octree, OctreeParams};
+use strahl_core::geom::triangle::{area_normal, hit_point, intersect, RayFrame};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_host::generate::Rng;
 use strahl_tests::{bounds, closed_sphere, positions, random_soup};
 

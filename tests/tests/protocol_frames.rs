@@ -10,24 +10,25 @@
 
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
-use strahl_core::camera::{Camera, SeedCamera};
-use strahl_core::error::{ProtocolError, SceneError};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
-use strahl_core::protocol::frame::{DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent};
-use strahl_core::protocol::message::{
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, SeedCamera};
+use strahl_core::scene::error::SceneError;
+use strahl_core::scene::SceneDesc;
+use strahl_core::wire::error::ProtocolError;
+use strahl_core::wire::frame::{DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::message::{
     decode_pixels, encode_pixels, Hello, MasterMessage, Refusal, WorkerMessage,
 };
-use strahl_core::protocol::scene_blob::{
+use strahl_core::wire::scene_blob::{
     decode_bundle, digest, ChunkOutcome, SceneAssembler, SceneBlob,
 };
-use strahl_core::protocol::{
+use strahl_core::wire::{
     frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_MASK_LEN, MAX_MASTER_FRAME_LEN,
     MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN, MAX_WIDTH,
     PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
 };
-use strahl_core::scene::SceneDesc;
-use strahl_core::shade::RayCounts;
 
 // ---------------------------------------------------------------------------------------------
 // Helpers

@@ -1,4 +1,4 @@
-//! The worker loop, `strahl_core::protocol::worker::serve`, over an in-memory link.
+//! The worker loop, `strahl_core::worker::serve`, over an in-memory link.
 //!
 //! Each test scripts what a master sends (frames built with `FrameWriter`, then the end of the
 //! stream), runs `serve` on it, and decodes every frame the worker wrote. It checks the session
@@ -10,21 +10,21 @@
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
 use std::sync::Arc;
-use strahl_core::adaptive::{mask_len, refine_line};
-use strahl_core::camera::{Camera, SeedCamera};
-use strahl_core::error::SceneError;
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
-use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
-use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
-use strahl_core::protocol::scene_blob::{memory_estimate, SceneBlob};
-use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
-use strahl_core::protocol::{
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::adaptive::{mask_len, refine_line};
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::render_line;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, SeedCamera};
+use strahl_core::scene::error::SceneError;
+use strahl_core::scene::{Scene, SceneDesc};
+use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
+use strahl_core::wire::scene_blob::{memory_estimate, SceneBlob};
+use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
-use strahl_core::render::render_line;
-use strahl_core::scene::{Scene, SceneDesc};
-use strahl_core::shade::RayCounts;
+use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
 
 // ---------------------------------------------------------------------------------------------
 // The link and the script

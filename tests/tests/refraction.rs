@@ -2,18 +2,19 @@
 //! the critical angle, nested media, and the weight cut-off and depth cap for refraction rays.
 
 use glam::Vec3;
-use strahl_core::camera::{Camera, LookAtCamera};
-use strahl_core::intersect::PrimitiveHit;
-use strahl_core::octree::OctreeParams;
-use strahl_core::optics::refract;
-use strahl_core::pixel::Pixel;
-use strahl_core::ray::{offset_ray_origin, Ray};
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::prepared::{SolidSurface, SpanScratch};
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::optics::refract;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::render::shade::{trace, TraceScratch};
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_core::shade::{trace, RayCounts, TraceScratch};
-use strahl_core::solid::prepared::{SolidSurface, SpanScratch};
-use strahl_core::solid::{CsgOp, Shape, SolidNode};
-use strahl_core::transform::Transform;
 
 // ---------------------------------------------------------------------------------------------
 // Builders

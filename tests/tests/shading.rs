@@ -1,12 +1,12 @@
 //! The shading rules of `scenes/FORMATS.md`, checked on crafted scenes with known answers.
 
 use glam::Vec3;
-use strahl_core::camera::{Camera, CameraFrame, SeedCamera};
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_core::shade::RayCounts;
 use strahl_host::generate::MeshBuilder;
 
 fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {

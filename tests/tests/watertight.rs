@@ -2,8 +2,8 @@
 //! vertices and along edges. A leak here is a background pixel inside a closed object.
 
 use glam::Vec3;
-use strahl_core::octree::{Octree, OctreeParams};
-use strahl_core::ray::Ray;
+use strahl_core::accel::octree::{Octree, OctreeParams};
+use strahl_core::math::ray::Ray;
 use strahl_host::generate::Rng;
 use strahl_tests::{closed_sphere, positions};
 

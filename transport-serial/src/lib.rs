@@ -9,7 +9,7 @@
 
 use embedded_io_adapters::std::FromStd;
 use std::time::Duration;
-use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
 
 pub use serialport::Error;
 

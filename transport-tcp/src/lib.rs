@@ -1,7 +1,7 @@
 //! TCP transport for Strahl: endpoints, connecting, and the worker side of a TCP link.
 //!
 //! The master's side of a connection is a plain [`TcpStream`] (the host wraps it into its link
-//! type); the worker's side runs [`strahl_core::protocol::worker::serve`] over the stream. Frames
+//! type); the worker's side runs [`strahl_core::worker::serve`] over the stream. Frames
 //! are small and latency-bound, so every stream has Nagle's algorithm off.
 //!
 //! Workers either listen ([`serve_listener`]: one master at a time, then the next) or dial a
@@ -12,7 +12,7 @@ use embedded_io_adapters::std::FromStd;
 use std::io::{self, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
-use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
 
 /// The port workers listen on and masters dial when an address names none.
 pub const DEFAULT_PORT: u16 = 7415;

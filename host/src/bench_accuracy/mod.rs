@@ -42,16 +42,16 @@ use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use strahl_core::error::ProtocolError;
-use strahl_core::octree::OctreeParams;
-use strahl_core::pixel::Pixel;
-use strahl_core::protocol::frame::FrameWriter;
-use strahl_core::protocol::message::{encode_pixels, WorkerMessage};
-use strahl_core::protocol::PIXEL_WIRE_BYTES;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::{
     RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
-use strahl_core::shade::RayCounts;
+use strahl_core::wire::error::ProtocolError;
+use strahl_core::wire::frame::FrameWriter;
+use strahl_core::wire::message::{encode_pixels, WorkerMessage};
+use strahl_core::wire::PIXEL_WIRE_BYTES;
 
 mod conclusions;
 mod format;

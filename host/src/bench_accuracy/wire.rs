@@ -144,9 +144,9 @@ mod tests {
 
     #[test]
     fn wire_bytes_are_the_protocols_frames() {
-        use strahl_core::protocol::frame::{FrameReader, ReadEvent};
-        use strahl_core::protocol::message::decode_pixels;
-        use strahl_core::protocol::MAX_FRAME_LEN;
+        use strahl_core::wire::frame::{FrameReader, ReadEvent};
+        use strahl_core::wire::message::decode_pixels;
+        use strahl_core::wire::MAX_FRAME_LEN;
         let (w, h) = (40u32, 3u32);
         let px: Vec<Pixel> = (0..w * h)
             .map(|i| Pixel([(i * 523) as u16, (i * 97) as u16, 65535 - i as u16]))

@@ -10,8 +10,8 @@ use crate::cluster::master::{run_master, ClusterError, ClusterImage, MasterOptio
 use crate::cluster::pipe::{duplex, LinkModel, PipeEnd};
 use crate::cluster::prepared::PreparedScene;
 use embedded_io_adapters::std::FromStd;
-use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache};
-use strahl_core::shade::RayCounts;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::worker::{serve, NodeInfo, SceneCache};
 
 /// The memory an in-process worker offers a scene: all there is (it shares the master's).
 pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;

@@ -26,15 +26,15 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender, TryRecvError};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use strahl_core::adaptive::{edge_mask, mask_len, merge_refined};
-use strahl_core::pixel::Pixel;
-use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
-use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
-use strahl_core::protocol::scene_blob::SceneBlob;
-use strahl_core::protocol::{
+use strahl_core::render::adaptive::{edge_mask, mask_len, merge_refined};
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
+use strahl_core::wire::scene_blob::SceneBlob;
+use strahl_core::wire::{
     frame_len, MAX_HEADER_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
-use strahl_core::shade::RayCounts;
 
 /// How the master schedules and when it gives up on a worker.
 #[derive(Clone, Debug)]

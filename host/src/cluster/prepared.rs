@@ -4,12 +4,13 @@
 use crate::cluster::master::{AdaptiveJob, ClusterJob};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
-use strahl_core::adaptive::is_adaptive;
-use strahl_core::error::{ProtocolError, SceneError};
-use strahl_core::octree::OctreeParams;
-use strahl_core::protocol::scene_blob::SceneBlob;
-use strahl_core::protocol::worker::SceneCache;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::scene::effects::is_adaptive;
+use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{Scene, SceneDesc};
+use strahl_core::wire::error::ProtocolError;
+use strahl_core::wire::scene_blob::SceneBlob;
+use strahl_core::worker::SceneCache;
 
 /// Why a scene cannot be prepared.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]

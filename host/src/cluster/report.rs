@@ -4,7 +4,7 @@ use crate::cluster::link::LinkKind;
 use crate::progress::format_ray_rate;
 use std::fmt;
 use std::time::Duration;
-use strahl_core::shade::RayCounts;
+use strahl_core::render::stats::RayCounts;
 
 /// One worker's share of a render.
 #[derive(Clone, Debug, PartialEq)]

@@ -11,7 +11,7 @@ use crate::cluster::pipe::{duplex, LinkModel, PipeCloser, PipeEnd};
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use embedded_io_adapters::std::FromStd;
 use std::time::{Duration, Instant};
-use strahl_core::protocol::worker::{serve, NodeInfo, SceneCache};
+use strahl_core::worker::{serve, NodeInfo, SceneCache};
 
 /// What goes wrong with a simulated worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

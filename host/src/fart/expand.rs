@@ -30,12 +30,12 @@ use std::collections::HashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
-use strahl_core::camera::{Camera, LookAtCamera};
+use strahl_core::geom::solid::{CsgOp, Shape, SolidNode, MAX_CSG_DEPTH};
+use strahl_core::math::transform::Transform;
+use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{
     Light, RenderSettings, SceneDesc, Shader, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
-use strahl_core::solid::{CsgOp, Shape, SolidNode, MAX_CSG_DEPTH};
-use strahl_core::transform::Transform;
 
 /// The most analytic shapes a scene may expand to.
 pub const MAX_SHAPES: u64 = 1_000_000;

@@ -8,7 +8,7 @@
 
 use super::lexer::{Token, TokenKind};
 use super::{FartError, Pos};
-use strahl_core::solid::CsgOp;
+use strahl_core::geom::solid::CsgOp;
 
 /// The deepest nesting of blocks and parentheses the parser accepts.
 pub const MAX_NESTING: u32 = 128;

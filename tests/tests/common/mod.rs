@@ -4,14 +4,15 @@
 #![allow(dead_code)]
 
 use glam::Vec3;
-use strahl_core::intersect::PrimitiveHit;
-use strahl_core::pixel::Pixel;
-use strahl_core::ray::{offset_ray_origin, Ray};
+use strahl_core::geom::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
+use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
-use strahl_core::sampling::{mix, pixel_seed};
+use strahl_core::render::sampling::{mix, pixel_seed};
+use strahl_core::render::shade::{trace, TraceScratch};
+use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::Scene;
-use strahl_core::shade::{trace, RayCounts, TraceScratch};
-use strahl_core::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
 
 /// A rendered image: the pixels of `render_line`, the centre rays' colours before quantisation,
 /// and the rays traced.

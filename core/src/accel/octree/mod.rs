@@ -1,0 +1,169 @@
+//! The octree: an arena of nodes with `u32` handles over the scene's triangles.
+//!
+//! The octree files primitives by index: triangles first, then bounded solids (see `build.rs`);
+//! the generic queries take a closure that tests one primitive.
+//! - [`Node`]s live in one flat `Vec`; the eight children of an interior node are stored together
+//!   and addressed by the index of the first. A leaf is a range of [`Octree::indices`], the
+//!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
+//!   not stored but derived from the parent's by halving.
+//! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre and files a triangle in
+//!   every child cell it touches (exact separating-axis test on a box grown by its error bound).
+//! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
+//!   walk the cells a ray crosses, nearest child first, with a fixed-size stack.
+//! - [`brute_force_closest_hit`] is the reference the octree is tested against.
+//!
+//! The closest hit is the smallest `t`, ties going to the smallest triangle index; the octree
+//! returns exactly the triangle and `t` that testing every triangle would.
+
+mod build;
+mod overlap;
+mod traverse;
+
+use crate::geom::hit::closer;
+use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
+use crate::math::aabb::Aabb;
+use crate::math::ray::Ray;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// The deepest octree [`OctreeParams::max_depth`] may ask for (bounds the traversal stack).
+pub const MAX_DEPTH_LIMIT: u32 = 20;
+
+/// Octree build limits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct OctreeParams {
+    /// Cells at this depth are never split (clamped to [`MAX_DEPTH_LIMIT`]).
+    pub max_depth: u32,
+    /// Cells with at most this many triangles are not split.
+    pub max_leaf_triangles: u32,
+}
+
+impl Default for OctreeParams {
+    fn default() -> Self {
+        OctreeParams {
+            max_depth: 16,
+            max_leaf_triangles: 8,
+        }
+    }
+}
+
+/// Marks an interior node in [`Node::count`].
+const INTERIOR: u32 = u32::MAX;
+
+/// One octree cell: an interior node (children at `first .. first + 8`) or a leaf (triangle
+/// indices at `first .. first + count` of [`Octree::indices`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Node {
+    first: u32,
+    count: u32,
+}
+
+impl Node {
+    /// True for a leaf.
+    #[inline]
+    pub fn is_leaf(&self) -> bool {
+        self.count != INTERIOR
+    }
+}
+
+/// Figures about a built octree, for the end-of-render summary and benchmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OctreeStats {
+    /// Triangles given to the build.
+    pub triangles: u32,
+    /// Triangles filed in the tree (degenerate ones are left out: they are never hit).
+    pub filed_triangles: u32,
+    /// All nodes, interior and leaf.
+    pub nodes: u32,
+    /// Leaf nodes.
+    pub leaves: u32,
+    /// Leaves with no triangle.
+    pub empty_leaves: u32,
+    /// Depth of the deepest leaf (the root is depth 0).
+    pub depth: u32,
+    /// Entries in the leaf index list (a triangle spanning cells counts once per cell).
+    pub references: u32,
+    /// The most triangles in one leaf.
+    pub max_leaf_triangles: u32,
+    /// Bytes of the node array and the index list.
+    pub bytes: usize,
+}
+
+impl OctreeStats {
+    /// Octree bytes per triangle given to the build.
+    pub fn bytes_per_triangle(&self) -> f32 {
+        if self.triangles == 0 {
+            0.0
+        } else {
+            self.bytes as f32 / self.triangles as f32
+        }
+    }
+
+    /// Mean triangles per non-empty leaf.
+    pub fn mean_leaf_triangles(&self) -> f32 {
+        let full = self.leaves - self.empty_leaves;
+        if full == 0 {
+            0.0
+        } else {
+            self.references as f32 / full as f32
+        }
+    }
+}
+
+/// The octree over a triangle list. It stores indices only; queries take the triangle positions.
+#[derive(Clone, Debug)]
+pub struct Octree {
+    nodes: Vec<Node>,
+    indices: Vec<u32>,
+    bounds: Aabb,
+    stats: OctreeStats,
+}
+
+/// A ray's closest hit: which triangle, where, and how exactly.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Index of the triangle hit.
+    pub triangle: u32,
+    /// The hit's `t`, barycentrics and `t` error bound.
+    pub tri: TriangleHit,
+}
+
+/// Tests the ray against every triangle: the reference for the octree's closest hit.
+pub fn brute_force_closest_hit(triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
+    let frame = RayFrame::new(ray);
+    let mut best: Option<(u32, TriangleHit)> = None;
+    for (i, p) in triangles.iter().enumerate() {
+        // Degenerate triangles are not filed in the octree either.
+        if crate::geom::triangle::unit_normal(p).is_none() {
+            continue;
+        }
+        if let Some(h) = intersect(&frame, p, t_max) {
+            if closer(h.t, i as u32, &best) {
+                best = Some((i as u32, h));
+            }
+        }
+    }
+    best.map(|(triangle, tri)| Hit { triangle, tri })
+}
+
+impl Octree {
+    /// Build statistics.
+    pub fn stats(&self) -> &OctreeStats {
+        &self.stats
+    }
+
+    /// The box around every filed triangle.
+    pub fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+
+    /// The node array (root at index 0).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
+    /// The reordered triangle index list that leaves point into.
+    pub fn indices(&self) -> &[u32] {
+        &self.indices
+    }
+}

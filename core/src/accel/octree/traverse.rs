@@ -1,0 +1,197 @@
+//! Octree traversal: the cells a ray crosses, nearest first, with a fixed-size stack.
+//!
+//! A cell is entered with the ray-parameter interval `[t0, t1]` in which the ray is inside it. The
+//! three centre planes cut that interval into at most four pieces, one per child crossed; pieces
+//! share their computed plane-crossing values, so they leave no gap, and each is widened by the
+//! rounding error bound of that crossing so a ray near a plane visits both cells.
+
+use super::build::child_box;
+use super::{Hit, Octree, MAX_DEPTH_LIMIT};
+use crate::geom::hit::{closer, RayHit};
+use crate::geom::triangle::{intersect, RayFrame};
+use crate::math::aabb::Aabb;
+use crate::math::float::{gamma, MACHINE_EPSILON};
+use crate::math::ray::Ray;
+use glam::Vec3;
+
+/// Each level pushes at most four cells and pops one.
+const STACK_SIZE: usize = 3 * MAX_DEPTH_LIMIT as usize + 2;
+
+#[derive(Clone, Copy)]
+struct Entry {
+    node: u32,
+    cell: Aabb,
+    t0: f32,
+    t1: f32,
+}
+
+impl Octree {
+    /// The closest hit of `ray` with `0 < t < t_max`: the smallest `t`, ties to the smallest
+    /// triangle index, exactly as [`super::brute_force_closest_hit`] finds it.
+    pub fn closest_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
+        let frame = RayFrame::new(ray);
+        self.closest_hit_with(ray, t_max, |i, bound| {
+            intersect(&frame, &triangles[i as usize], bound)
+        })
+        .map(|(triangle, tri)| Hit { triangle, tri })
+    }
+
+    /// The closest hit of `ray` with `0 < t < t_max` among the filed primitives, each tested by
+    /// `test(index, bound)`, which returns a hit with `t < bound` or `None`. Ties go to the
+    /// smallest index, so the result does not depend on the order cells are visited in.
+    pub fn closest_hit_with<H: RayHit>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut test: impl FnMut(u32, f32) -> Option<H>,
+    ) -> Option<(u32, H)> {
+        let mut best: Option<(u32, H)> = None;
+        // Tests are bounded by the best hit so far, loosened by four roundings so that only hits
+        // that lose the comparison anyway are cut early (the winner stays exact).
+        let mut bound = t_max;
+        self.walk(ray, t_max, |indices| {
+            for &i in indices {
+                if let Some(h) = test(i, bound) {
+                    if closer(h.t(), i, &best) {
+                        best = Some((i, h));
+                        bound = bound.min(h.t() * (1.0 + 4.0 * MACHINE_EPSILON));
+                    }
+                }
+            }
+            // Cells that start beyond the best hit (plus its error bound) cannot hold a closer one.
+            match &best {
+                Some((_, b)) => b.t() + b.t_error(),
+                None => f32::INFINITY,
+            }
+        });
+        best
+    }
+
+    /// True if `ray` hits any triangle provably before `t_max`: `0 < t` and `t + t_error < t_max`
+    /// (shadow rays: a surface the light lies on, within rounding, does not block it). Stops at
+    /// the first hit.
+    pub fn any_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> bool {
+        let frame = RayFrame::new(ray);
+        self.any_hit_with(ray, t_max, |i| {
+            intersect(&frame, &triangles[i as usize], t_max)
+                .is_some_and(|h| h.t + h.t_error < t_max)
+        })
+    }
+
+    /// True if `test(index)` holds for any filed primitive in a cell the ray crosses before
+    /// `t_max`. Stops at the first.
+    pub fn any_hit_with(&self, ray: &Ray, t_max: f32, mut test: impl FnMut(u32) -> bool) -> bool {
+        let mut found = false;
+        self.walk(ray, t_max, |indices| {
+            found = indices.iter().any(|&i| test(i));
+            if found {
+                f32::NEG_INFINITY
+            } else {
+                f32::INFINITY
+            }
+        });
+        found
+    }
+
+    /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's triangle
+    /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
+    fn walk(&self, ray: &Ray, t_max: f32, mut leaf: impl FnMut(&[u32]) -> f32) {
+        let inv_dir = Vec3::ONE / ray.dir;
+        let Some((t0, t1)) = self.bounds.intersect(ray, inv_dir, t_max) else {
+            return;
+        };
+        let widen = 2.0 * gamma(3);
+        let mut stack = [Entry {
+            node: 0,
+            cell: self.bounds,
+            t0: 0.0,
+            t1: 0.0,
+        }; STACK_SIZE];
+        stack[0].t0 = t0 * (1.0 - widen);
+        stack[0].t1 = t1;
+        let mut top = 1usize;
+        let mut cutoff = f32::INFINITY;
+        while top > 0 {
+            top -= 1;
+            let e = stack[top];
+            if e.t0 > cutoff {
+                if cutoff == f32::NEG_INFINITY {
+                    return;
+                }
+                continue;
+            }
+            let node = self.nodes[e.node as usize];
+            if node.is_leaf() {
+                let start = node.first as usize;
+                cutoff = leaf(&self.indices[start..start + node.count as usize]);
+                continue;
+            }
+            // Where the ray crosses each centre plane, and on which side it starts.
+            let mid = e.cell.center();
+            let mut cross = [f32::INFINITY; 3];
+            let mut child = 0usize;
+            for a in 0..3 {
+                let d = ray.dir[a];
+                let upper = if d == 0.0 {
+                    ray.origin[a] >= mid[a]
+                } else {
+                    cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
+                    if d > 0.0 {
+                        e.t0 >= cross[a]
+                    } else {
+                        e.t0 < cross[a]
+                    }
+                };
+                child |= (upper as usize) << a;
+            }
+            // Plane crossings inside the interval, in ray order.
+            let mut events = [(f32::INFINITY, 0usize); 3];
+            let mut n = 0;
+            for (a, &c) in cross.iter().enumerate() {
+                if c > e.t0 && c < e.t1 {
+                    events[n] = (c, a);
+                    n += 1;
+                }
+            }
+            sort3(&mut events);
+            // Pieces: [t0, c1], [c1, c2], ..., [cn, t1], each widened around its inner crossings.
+            let mut pieces = [(0usize, 0.0f32, 0.0f32); 4];
+            let mut start = e.t0;
+            for (k, &(c, a)) in events[..n].iter().enumerate() {
+                pieces[k] = (child, start, c * (1.0 + widen));
+                child ^= 1 << a;
+                start = c * (1.0 - widen);
+            }
+            pieces[n] = (child, start, e.t1);
+            // Push far pieces first so the nearest is popped next.
+            for &(c, p0, p1) in pieces[..=n].iter().rev() {
+                let index = node.first + c as u32;
+                let child_node = self.nodes[index as usize];
+                if child_node.is_leaf() && child_node.count == 0 {
+                    continue;
+                }
+                stack[top] = Entry {
+                    node: index,
+                    cell: child_box(&e.cell, mid, c),
+                    t0: p0,
+                    t1: p1,
+                };
+                top += 1;
+            }
+        }
+    }
+}
+
+/// Sorts three (t, axis) pairs by t; infinities (unused slots) sort last.
+#[inline]
+fn sort3(v: &mut [(f32, usize); 3]) {
+    if v[1].0 < v[0].0 {
+        v.swap(0, 1);
+    }
+    if v[2].0 < v[1].0 {
+        v.swap(1, 2);
+    }
+    if v[1].0 < v[0].0 {
+        v.swap(0, 1);
+    }
+}

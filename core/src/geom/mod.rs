@@ -1,0 +1,13 @@
+//! The geometry layer: what a ray can hit, one primitive at a time.
+//!
+//! - [`triangle`]: the watertight ray/triangle test that reports `t` with its error bound.
+//! - [`solid`]: analytic shapes placed by affine transforms, closed meshes used as solids, and CSG
+//!   on them, with the render-time form [`solid::prepared::Solids`].
+//! - [`hit`]: what the closest-hit queries need of any primitive's hit ([`hit::RayHit`]) and the
+//!   rule that orders hits ([`hit::closer`]).
+//!
+//! `triangle` ← `hit` ← `solid`; the layer uses only [`crate::math`].
+
+pub mod hit;
+pub mod solid;
+pub mod triangle;

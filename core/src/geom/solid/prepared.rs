@@ -1,0 +1,405 @@
+//! Solids prepared for rendering: placements inverted once, world bounds, and ray queries.
+//!
+//! [`Solids`] holds the arena with each leaf's [`Placement`]. [`Solids::first_hit`] evaluates one
+//! scene object (a root node) against a ray: it collects the spans of every leaf below the root
+//! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
+//! combines them bottom-up, and returns the first boundary in front of the origin.
+
+use super::mesh;
+use super::shape::{self, Face};
+use super::spans::{combine, Boundary, Span};
+use super::{CsgOp, Shape, SolidNode};
+use crate::geom::hit::RayHit;
+use crate::math::aabb::Aabb;
+use crate::math::float::gamma;
+use crate::math::ray::Ray;
+use crate::math::transform::Placement;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// A node of the prepared arena.
+#[derive(Clone, Copy, Debug)]
+pub enum PreparedNode {
+    /// A placed shape.
+    Leaf {
+        /// The shape in object space.
+        shape: Shape,
+        /// Its placement, with the inverse.
+        placement: Placement,
+        /// Shader index.
+        shader: u32,
+    },
+    /// A placed closed mesh.
+    Mesh {
+        /// Its triangles: `first .. first + count` of [`Solids`]' mesh triangles.
+        first: u32,
+        /// Number of triangles.
+        count: u32,
+        /// Its placement, with the inverse.
+        placement: Placement,
+        /// Shader index.
+        shader: u32,
+    },
+    /// A boolean operation on two earlier nodes.
+    Csg {
+        /// Which operation.
+        op: CsgOp,
+        /// First operand.
+        a: u32,
+        /// Second operand.
+        b: u32,
+    },
+}
+
+/// Reusable buffers for span evaluation.
+#[derive(Clone, Debug, Default)]
+pub struct SpanScratch {
+    spans: Vec<Span>,
+    combined: Vec<Span>,
+    crossings: Vec<mesh::MeshCrossing>,
+}
+
+/// Where a ray first meets a solid object's surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolidHit {
+    /// Ray parameter.
+    pub t: f32,
+    /// Bound on the error of `t`.
+    pub t_error: f32,
+    /// The leaf shape actually hit (index into the arena).
+    pub leaf: u32,
+    /// Its face.
+    pub face: Face,
+    /// True if the composite's outward normal is the leaf's inward one (surface from `B` in
+    /// `A − B`).
+    pub flip: bool,
+}
+
+impl RayHit for SolidHit {
+    #[inline]
+    fn t(&self) -> f32 {
+        self.t
+    }
+    #[inline]
+    fn t_error(&self) -> f32 {
+        self.t_error
+    }
+}
+
+/// The surface at a solid hit, in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolidSurface {
+    /// The hit point.
+    pub point: Vec3,
+    /// Per-axis bound on its error.
+    pub point_error: Vec3,
+    /// Unit outward normal of the composite solid.
+    pub normal: Vec3,
+    /// Shader of the leaf hit.
+    pub shader: u32,
+}
+
+/// The scene's solids, ready for rendering.
+#[derive(Clone, Debug, Default)]
+pub struct Solids {
+    nodes: Vec<PreparedNode>,
+    /// Root node of each scene object.
+    objects: Vec<u32>,
+    /// World box of each object (`None`: unbounded).
+    bounds: Vec<Option<Aabb>>,
+    /// Object-space triangles of the mesh nodes.
+    mesh_triangles: Vec<[Vec3; 3]>,
+}
+
+fn finite_box(b: &Aabb) -> bool {
+    b.min.is_finite() && b.max.is_finite()
+}
+
+impl Solids {
+    /// Prepares the arena; `nodes`, `objects` and the mesh nodes' `mesh_triangles` must have
+    /// passed the scene's validation.
+    pub fn new(nodes: &[SolidNode], objects: &[u32], mesh_triangles: &[[Vec3; 3]]) -> Solids {
+        let prepared: Vec<PreparedNode> = nodes
+            .iter()
+            .map(|n| match *n {
+                SolidNode::Leaf {
+                    shape,
+                    transform,
+                    shader,
+                } => PreparedNode::Leaf {
+                    shape,
+                    placement: Placement::new(&transform),
+                    shader,
+                },
+                SolidNode::Mesh {
+                    first,
+                    count,
+                    transform,
+                    shader,
+                } => PreparedNode::Mesh {
+                    first,
+                    count,
+                    placement: Placement::new(&transform),
+                    shader,
+                },
+                SolidNode::Csg { op, a, b } => PreparedNode::Csg { op, a, b },
+            })
+            .collect();
+        let mut boxes: Vec<Aabb> = Vec::with_capacity(prepared.len());
+        for n in &prepared {
+            let b = match *n {
+                PreparedNode::Leaf {
+                    shape, placement, ..
+                } => world_box(&shape::object_bounds(&shape), &placement),
+                PreparedNode::Mesh {
+                    first,
+                    count,
+                    placement,
+                    ..
+                } => {
+                    let mut ob = Aabb::EMPTY;
+                    for p in &mesh_triangles[first as usize..(first + count) as usize] {
+                        for &v in p {
+                            ob.add_point(v);
+                        }
+                    }
+                    world_box(&ob, &placement)
+                }
+                PreparedNode::Csg { op, a, b } => {
+                    let (ba, bb) = (boxes[a as usize], boxes[b as usize]);
+                    match op {
+                        CsgOp::Union => Aabb {
+                            min: ba.min.min(bb.min),
+                            max: ba.max.max(bb.max),
+                        },
+                        CsgOp::Intersect => Aabb {
+                            min: ba.min.max(bb.min),
+                            max: ba.max.min(bb.max),
+                        },
+                        CsgOp::Subtract => ba,
+                    }
+                }
+            };
+            boxes.push(b);
+        }
+        let bounds = objects
+            .iter()
+            .map(|&r| {
+                let b = boxes[r as usize];
+                finite_box(&b).then_some(b)
+            })
+            .collect();
+        Solids {
+            nodes: prepared,
+            objects: objects.to_vec(),
+            bounds,
+            mesh_triangles: mesh_triangles.to_vec(),
+        }
+    }
+
+    /// World boxes of the objects, `None` for unbounded ones (those stay out of the octree).
+    pub fn bounds(&self) -> &[Option<Aabb>] {
+        &self.bounds
+    }
+
+    /// Number of triangles in the meshes of CSG solids.
+    pub fn mesh_triangle_count(&self) -> usize {
+        self.mesh_triangles.len()
+    }
+
+    /// Number of scene objects.
+    pub fn len(&self) -> usize {
+        self.objects.len()
+    }
+
+    /// True if the scene has no solid objects.
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+
+    /// The shader of leaf `leaf`.
+    pub fn leaf_shader(&self, leaf: u32) -> u32 {
+        match self.nodes[leaf as usize] {
+            PreparedNode::Leaf { shader, .. } | PreparedNode::Mesh { shader, .. } => shader,
+            PreparedNode::Csg { .. } => 0,
+        }
+    }
+
+    /// The spans of `ray` inside node `node`, appended to `scratch.spans`; returns where they
+    /// start.
+    fn eval(&self, node: u32, ray: &Ray, scratch: &mut SpanScratch) -> usize {
+        let start = scratch.spans.len();
+        match self.nodes[node as usize] {
+            PreparedNode::Leaf {
+                shape, placement, ..
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                if let Some(s) = shape::span(&shape, o, d) {
+                    let end = |c: shape::Crossing| Boundary {
+                        t: c.t,
+                        t_error: c.t_error,
+                        merge_error: c.merge_error,
+                        leaf: node,
+                        face: c.face,
+                        flip: false,
+                    };
+                    scratch.spans.push(Span {
+                        enter: end(s.enter),
+                        exit: end(s.exit),
+                    });
+                }
+            }
+            PreparedNode::Mesh {
+                first,
+                count,
+                placement,
+                ..
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let triangles = &self.mesh_triangles[first as usize..(first + count) as usize];
+                mesh::spans(
+                    triangles,
+                    o,
+                    d,
+                    node,
+                    &mut scratch.crossings,
+                    &mut scratch.spans,
+                );
+            }
+            PreparedNode::Csg { op, a, b } => {
+                let sa = self.eval(a, ray, scratch);
+                let sb = self.eval(b, ray, scratch);
+                let mut combined = core::mem::take(&mut scratch.combined);
+                combined.clear();
+                combine(
+                    op,
+                    &scratch.spans[sa..sb],
+                    &scratch.spans[sb..],
+                    &mut combined,
+                    |bound| {
+                        let hit = SolidHit {
+                            t: bound.t,
+                            t_error: bound.t_error,
+                            leaf: bound.leaf,
+                            face: bound.face,
+                            flip: bound.flip,
+                        };
+                        self.surface(ray, &hit).normal
+                    },
+                );
+                scratch.spans.truncate(start);
+                scratch.spans.extend_from_slice(&combined);
+                scratch.combined = combined;
+            }
+        }
+        start
+    }
+
+    /// The first surface of object `object` that `ray` crosses with `t` in front of its origin
+    /// (beyond the crossing's error bound) and below `t_max`.
+    pub fn first_hit(
+        &self,
+        object: u32,
+        ray: &Ray,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<SolidHit> {
+        scratch.spans.clear();
+        self.eval(self.objects[object as usize], ray, scratch);
+        let front = |b: &Boundary| b.t > b.t_error && b.t.is_finite();
+        let first = scratch
+            .spans
+            .iter()
+            .flat_map(|s| [s.enter, s.exit])
+            .find(front)?;
+        (first.t < t_max).then_some(SolidHit {
+            t: first.t,
+            t_error: first.t_error,
+            leaf: first.leaf,
+            face: first.face,
+            flip: first.flip,
+        })
+    }
+
+    /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
+    /// outward normal and shader.
+    pub fn surface(&self, ray: &Ray, hit: &SolidHit) -> SolidSurface {
+        let (placement, shader, p, err, object_normal) = match self.nodes[hit.leaf as usize] {
+            PreparedNode::Leaf {
+                shape,
+                placement,
+                shader,
+            } => {
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let (p, err) = shape::surface(&shape, o, d, hit.t, hit.t_error, hit.face);
+                (
+                    placement,
+                    shader,
+                    p,
+                    err,
+                    shape::normal(&shape, p, hit.face),
+                )
+            }
+            PreparedNode::Mesh {
+                first,
+                placement,
+                shader,
+                ..
+            } => {
+                let tri = &self.mesh_triangles[(first + hit.face) as usize];
+                let o = placement.point_to_object(ray.origin);
+                let d = placement.vector_to_object(ray.dir);
+                let p = o + d * hit.t;
+                // The point's error: the crossing's t error along d, plus the sum's rounding.
+                let err = d.abs() * hit.t_error + p.abs() * crate::math::float::gamma(4);
+                let n = crate::geom::triangle::unit_normal(tri).unwrap_or(Vec3::Z);
+                (placement, shader, p, err, n)
+            }
+            PreparedNode::Csg { .. } => {
+                // Hits always name leaves; a CSG node here would be a bug upstream.
+                return SolidSurface {
+                    point: ray.at(hit.t),
+                    point_error: Vec3::ZERO,
+                    normal: Vec3::Z,
+                    shader: 0,
+                };
+            }
+        };
+        let (point, point_error) = placement.point_to_world(p, err);
+        let mut normal = placement.normal_to_world(object_normal);
+        if normal == Vec3::ZERO {
+            normal = -ray.dir.normalize();
+        }
+        if hit.flip {
+            normal = -normal;
+        }
+        SolidSurface {
+            point,
+            point_error,
+            normal,
+            shader,
+        }
+    }
+}
+
+/// The world box of an object-space box `ob`: its corners mapped, grown by their rounding.
+fn world_box(ob: &Aabb, placement: &Placement) -> Aabb {
+    if !finite_box(ob) {
+        return *ob;
+    }
+    let mut b = Aabb::EMPTY;
+    for c in 0..8 {
+        let corner = Vec3::new(
+            if c & 1 == 0 { ob.min.x } else { ob.max.x },
+            if c & 2 == 0 { ob.min.y } else { ob.max.y },
+            if c & 4 == 0 { ob.min.z } else { ob.max.z },
+        );
+        let (p, err) = placement.point_to_world(corner, corner.abs() * gamma(2));
+        b.add_point(p - err);
+        b.add_point(p + err);
+    }
+    b
+}

@@ -1,0 +1,115 @@
+//! The scene's ray queries over every primitive: triangles and bounded solids through the octree,
+//! unbounded solids (half-spaces) beside it.
+//!
+//! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
+//! smallest primitive index (triangles first, then solids), so every machine picks the same one.
+
+use crate::geom::hit::{closer, RayHit};
+use crate::geom::solid::prepared::{SolidHit, SpanScratch};
+use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
+use crate::math::ray::Ray;
+use crate::scene::Scene;
+
+/// A hit of one primitive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PrimitiveHit {
+    /// A triangle (index into the scene's triangles).
+    Triangle(u32, TriangleHit),
+    /// A solid object (index into the scene's objects).
+    Solid(u32, SolidHit),
+}
+
+impl RayHit for PrimitiveHit {
+    #[inline]
+    fn t(&self) -> f32 {
+        match self {
+            PrimitiveHit::Triangle(_, h) => h.t,
+            PrimitiveHit::Solid(_, h) => h.t,
+        }
+    }
+    #[inline]
+    fn t_error(&self) -> f32 {
+        match self {
+            PrimitiveHit::Triangle(_, h) => h.t_error,
+            PrimitiveHit::Solid(_, h) => h.t_error,
+        }
+    }
+}
+
+impl Scene {
+    /// Primitive index of solid object `j`.
+    #[inline]
+    fn solid_index(&self, j: u32) -> u32 {
+        self.triangle_points.len() as u32 + j
+    }
+
+    /// Tests primitive `i` against the ray.
+    #[inline]
+    fn test_primitive(
+        &self,
+        frame: &RayFrame,
+        ray: &Ray,
+        i: u32,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<PrimitiveHit> {
+        let n = self.triangle_points.len() as u32;
+        if i < n {
+            intersect(frame, &self.triangle_points[i as usize], t_max)
+                .map(|h| PrimitiveHit::Triangle(i, h))
+        } else {
+            self.solids
+                .first_hit(i - n, ray, t_max, scratch)
+                .map(|h| PrimitiveHit::Solid(i - n, h))
+        }
+    }
+
+    /// The closest hit of `ray` with `0 < t < t_max` over all primitives.
+    pub fn closest_hit(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<PrimitiveHit> {
+        if self.solids.is_empty() {
+            // Triangles only (the seed's scenes): the octree's own triangle query.
+            return self
+                .octree
+                .closest_hit(&self.triangle_points, ray, t_max)
+                .map(|h| PrimitiveHit::Triangle(h.triangle, h.tri));
+        }
+        let frame = RayFrame::new(ray);
+        let mut best = self.octree.closest_hit_with(ray, t_max, |i, bound| {
+            self.test_primitive(&frame, ray, i, bound, scratch)
+        });
+        for &j in &self.unbounded {
+            let bound = best.map_or(t_max, |(_, h)| {
+                h.t().min(t_max) * (1.0 + 4.0 * crate::math::float::MACHINE_EPSILON)
+            });
+            let i = self.solid_index(j);
+            if let Some(h) = self.solids.first_hit(j, ray, bound.min(t_max), scratch) {
+                if closer(h.t, i, &best) {
+                    best = Some((i, PrimitiveHit::Solid(j, h)));
+                }
+            }
+        }
+        best.map(|(_, h)| h)
+    }
+
+    /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
+    /// `t + t_error < t_max` (shadow and occlusion rays).
+    pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut SpanScratch) -> bool {
+        if self.solids.is_empty() {
+            return self.octree.any_hit(&self.triangle_points, ray, t_max);
+        }
+        let frame = RayFrame::new(ray);
+        self.octree.any_hit_with(ray, t_max, |i| {
+            self.test_primitive(&frame, ray, i, t_max, scratch)
+                .is_some_and(|h| h.t() + h.t_error() < t_max)
+        }) || self.unbounded.iter().any(|&j| {
+            self.solids
+                .first_hit(j, ray, t_max, scratch)
+                .is_some_and(|h| h.t + h.t_error < t_max)
+        })
+    }
+}

@@ -1,0 +1,94 @@
+//! [`render_line`]: one image line, the unit of work that every executor hands out.
+//!
+//! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
+//! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
+//! summed in sample order. Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
+//! `render_line` traces only the pixel centres, and [`crate::render::adaptive::refine_line`] later
+//! supersamples the pixels that differ from a neighbour. Every decision depends on the scene and
+//! the pixel alone, so any executor on any machine produces the same pixels.
+
+use crate::math::ray::Ray;
+use crate::render::error::RenderError;
+use crate::render::pixel::Pixel;
+use crate::render::sampling::{mix, pixel_sample, pixel_seed};
+use crate::render::shade::{trace, TraceScratch};
+use crate::render::stats::RayCounts;
+use crate::scene::effects::is_adaptive;
+use crate::scene::Scene;
+use glam::Vec3;
+
+/// Renders image line `y` (0 is the top) of `scene` into `out`, one [`Pixel`] per column, and
+/// returns the rays it traced. The result depends only on the scene and `y`. With adaptive
+/// multisampling on ([`crate::scene::effects::is_adaptive`]) this is the first pass: the clamped colour
+/// of each pixel's centre ray.
+///
+/// # Errors
+/// [`RenderError::LineOutOfRange`] if `y` is not below the image height,
+/// [`RenderError::WrongBufferLength`] if `out` is not as long as the image is wide.
+pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts, RenderError> {
+    let s = &scene.settings;
+    if y >= s.height {
+        return Err(RenderError::LineOutOfRange);
+    }
+    if out.len() != s.width as usize {
+        return Err(RenderError::WrongBufferLength);
+    }
+    let mut counts = RayCounts::default();
+    let mut scratch = TraceScratch::default();
+    let m = s.samples.max(1);
+    if is_adaptive(s) {
+        for (x, px) in out.iter_mut().enumerate() {
+            let color = centre(scene, x as u32, y, &mut scratch, &mut counts);
+            counts.primary += 1;
+            *px = Pixel::from_color(color);
+        }
+        return Ok(counts);
+    }
+    for (x, px) in out.iter_mut().enumerate() {
+        let color = supersample(scene, x as u32, y, &mut scratch, &mut counts);
+        counts.primary += 1;
+        counts.extra_samples += u64::from(m * m - 1);
+        *px = Pixel::from_color(color);
+    }
+    Ok(counts)
+}
+
+/// The mean of the `m × m` samples of pixel `(x, y)` (just the centre sample for `m = 1`). Counts
+/// nothing but the rays the samples spawn.
+pub(crate) fn supersample(
+    scene: &Scene,
+    x: u32,
+    y: u32,
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    let m = scene.settings.samples.max(1);
+    let n = m * m;
+    let seed = pixel_seed(x, y);
+    let mut sum = Vec3::ZERO;
+    for k in 0..n {
+        let (dx, dy) = pixel_sample(seed, k, m);
+        let ray = scene.camera.ray(x as f32 + dx, y as f32 + dy);
+        sum += trace(scene, ray, mix(seed, k), scratch, counts);
+    }
+    if n == 1 {
+        sum
+    } else {
+        sum / n as f32
+    }
+}
+
+/// The colour of the ray through the centre of pixel `(x, y)`: adaptive multisampling's first
+/// pass (its occlusion pattern is sample `m²`, after the grid's).
+fn centre(
+    scene: &Scene,
+    x: u32,
+    y: u32,
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    let m = scene.settings.samples.max(1);
+    let seed = pixel_seed(x, y);
+    let ray: Ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
+    trace(scene, ray, mix(seed, m * m), scratch, counts)
+}

@@ -1,0 +1,429 @@
+//! Phong shading with shadows, reflection, refraction and ambient occlusion (seed sections 1.2.6,
+//! 3.2.2.2 and 3.2.3.1; FART's transparency).
+//!
+//! A path starts at a primary ray. At each hit the local colour is
+//! `ambient · visible + Σ lights visibility · amount · colour · (diffuse · N·L + specular · max(0, R·V)^shininess)`
+//! (a light contributes only where `N·L > 0`; `visible` is the share of ambient-occlusion rays that
+//! escape, 1 with occlusion off), and the surface's colour is
+//! `(1 − r − t) · local + r · reflected + t · refracted`. A reflected or refracted ray is traced
+//! only while its switch is on, the path weight (product of the shares along it) stays at or above
+//! the cut-off, and the depth cap is not reached; a share not traced goes to the local colour.
+//! Total internal reflection sends the refracted share along the mirror ray. Rays that cannot
+//! change a pixel are not made: no lighting where the local share is 0, no shadow ray towards a
+//! light behind the surface, no occlusion rays for a shader without ambient colour.
+//!
+//! [`RenderSettings::skip_effects`](crate::scene::RenderSettings) off turns those shortcuts into
+//! rays whose answers are dropped (shadow rays to every light, mirror and refraction rays at every
+//! hit, occlusion rays everywhere, all samples of adaptive multisampling), which proves the
+//! shortcuts never change a pixel.
+//!
+//! Branches are kept on an explicit stack and taken in a fixed order, so the floating-point sum of
+//! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
+//! nested transparent objects), so leaving an inner object returns to the outer one's index.
+
+use crate::geom::solid::prepared::SpanScratch;
+use crate::geom::triangle::{hit_point, unit_normal};
+use crate::math::ray::{offset_ray_origin, Ray};
+use crate::render::intersect::PrimitiveHit;
+use crate::render::optics::{reflect, refract};
+use crate::render::sampling::{hemisphere, mix};
+use crate::render::stats::RayCounts;
+use crate::scene::effects::{
+    highlight_matters, mirror_ray_matters, occlusion_matters, refraction_ray_matters,
+    shadow_ray_matters,
+};
+use crate::scene::Scene;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// Shadow rays run from the surface (`t = 0`) to the light (`t = 1`). `Scene::any_hit` counts a
+/// blocker only if it is provably before the light (`t + t_error < 1`), so a surface the light
+/// lies on does not shadow it.
+const SHADOW_T_MAX: f32 = 1.0;
+
+/// How many nested media a path remembers; deeper nesting forgets the outermost.
+const MAX_MEDIA: usize = 4;
+
+/// The transparent objects a ray is inside, innermost last, with their indices of refraction.
+#[derive(Clone, Copy, Debug)]
+struct Media {
+    keys: [u32; MAX_MEDIA],
+    iors: [f32; MAX_MEDIA],
+    len: usize,
+}
+
+impl Media {
+    const OUTSIDE: Media = Media {
+        keys: [0; MAX_MEDIA],
+        iors: [1.0; MAX_MEDIA],
+        len: 0,
+    };
+
+    /// Index of refraction around the ray (1 outside everything).
+    fn current(&self) -> f32 {
+        if self.len == 0 {
+            1.0
+        } else {
+            self.iors[self.len - 1]
+        }
+    }
+
+    fn entered(&self, key: u32, ior: f32) -> Media {
+        let mut m = *self;
+        if m.len == MAX_MEDIA {
+            m.keys.copy_within(1.., 0);
+            m.iors.copy_within(1.., 0);
+            m.len -= 1;
+        }
+        m.keys[m.len] = key;
+        m.iors[m.len] = ior;
+        m.len += 1;
+        m
+    }
+
+    fn ior_of(&self, key: u32) -> Option<f32> {
+        (0..self.len)
+            .rev()
+            .find(|&i| self.keys[i] == key)
+            .map(|i| self.iors[i])
+    }
+
+    fn left(&self, key: u32) -> Media {
+        let mut m = *self;
+        if let Some(i) = (0..m.len).rev().find(|&i| m.keys[i] == key) {
+            m.keys.copy_within(i + 1..m.len, i);
+            m.iors.copy_within(i + 1..m.len, i);
+            m.len -= 1;
+        }
+        m
+    }
+}
+
+/// A ray waiting to be traced, with its share of the pixel.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    ray: Ray,
+    weight: f32,
+    depth: u32,
+    media: Media,
+}
+
+/// Buffers a tracer reuses from ray to ray (one per render thread).
+#[derive(Clone, Debug, Default)]
+pub struct TraceScratch {
+    spans: SpanScratch,
+    pending: Vec<Pending>,
+}
+
+/// The surface at a hit, oriented towards the incoming ray.
+struct Surface {
+    point: Vec3,
+    point_error: Vec3,
+    /// Geometric normal, unit length, facing the incoming ray.
+    geometric: Vec3,
+    /// Smooth shading normal, unit length, on the same side as `geometric`.
+    shading: Vec3,
+    /// True if the ray arrives from the outside (against the outward normal).
+    entering: bool,
+    /// Shader index.
+    shader: usize,
+    /// Which transparent object this surface bounds (for nested media).
+    medium: u32,
+}
+
+/// Marks medium keys of triangle meshes (keyed by shader) apart from solids (keyed by object).
+const MESH_MEDIUM: u32 = 1 << 31;
+
+fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
+    match hit {
+        PrimitiveHit::Triangle(t, h) => {
+            let t = *t as usize;
+            let p = &scene.triangle_points[t];
+            let (point, point_error) = hit_point(p, h.b);
+            // Hit triangles are never degenerate (the octree leaves those out); Z only avoids a
+            // panic path.
+            let outward = unit_normal(p).unwrap_or(Vec3::Z);
+            let entering = outward.dot(ray.dir) <= 0.0;
+            let geometric = if entering { outward } else { -outward };
+            let n = &scene.triangle_normals[t];
+            let b = h.b;
+            let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize_or_zero();
+            if shading == Vec3::ZERO {
+                shading = geometric;
+            } else if shading.dot(geometric) < 0.0 {
+                shading = -shading;
+            }
+            let shader = scene.triangle_shader[t];
+            Surface {
+                point,
+                point_error,
+                geometric,
+                shading,
+                entering,
+                shader: shader as usize,
+                medium: MESH_MEDIUM | shader,
+            }
+        }
+        PrimitiveHit::Solid(object, h) => {
+            let s = scene.solids.surface(ray, h);
+            let entering = s.normal.dot(ray.dir) <= 0.0;
+            let geometric = if entering { s.normal } else { -s.normal };
+            Surface {
+                point: s.point,
+                point_error: s.point_error,
+                geometric,
+                shading: geometric,
+                entering,
+                shader: s.shader as usize,
+                medium: *object,
+            }
+        }
+    }
+}
+
+/// The share of occlusion rays from `s` that escape within the scene's occlusion distance.
+fn ambient_visibility(
+    scene: &Scene,
+    s: &Surface,
+    seed: u32,
+    spans: &mut SpanScratch,
+    counts: &mut RayCounts,
+) -> f32 {
+    let n = scene.settings.ambient_occlusion;
+    let total = n * n;
+    let mut free = 0u32;
+    for k in 0..total {
+        let dir = hemisphere(s.shading, seed, k, n);
+        if dir.dot(s.geometric) <= 0.0 {
+            // Below the true surface: the surface itself occludes it.
+            continue;
+        }
+        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        counts.occlusion += 1;
+        if !scene.any_hit(&Ray::new(origin, dir), scene.ao_distance, spans) {
+            free += 1;
+        }
+    }
+    free as f32 / total as f32
+}
+
+/// The local (Phong) colour at a surface seen from direction `view` (unit, towards the eye).
+fn local_color(
+    scene: &Scene,
+    s: &Surface,
+    view: Vec3,
+    seed: u32,
+    spans: &mut SpanScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    let sh = &scene.shaders[s.shader];
+    let settings = &scene.settings;
+    let naive = !settings.skip_effects;
+    let mut color = sh.ambient;
+    if settings.ambient_occlusion > 0 && (occlusion_matters(settings, sh) || naive) {
+        color *= ambient_visibility(scene, s, seed, spans, counts);
+    }
+    for light in &scene.lights {
+        let to_light = light.position - s.point;
+        let dist = to_light.length();
+        if dist == 0.0 {
+            continue;
+        }
+        let l = to_light / dist;
+        let n_dot_l = s.shading.dot(l);
+        let casts = shadow_ray_matters(settings, light);
+        if naive && !(casts && n_dot_l > 0.0) {
+            // Without skipping: the ray a naive tracer sends, whose answer cannot matter.
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
+            counts.shadow += 1;
+            let _ = scene.any_hit(
+                &Ray::new(origin, light.position - origin),
+                SHADOW_T_MAX,
+                spans,
+            );
+        }
+        if n_dot_l <= 0.0 {
+            continue;
+        }
+        if casts {
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
+            let shadow = Ray::new(origin, light.position - origin);
+            counts.shadow += 1;
+            if scene.any_hit(&shadow, SHADOW_T_MAX, spans) {
+                continue;
+            }
+        }
+        let r = s.shading * (2.0 * n_dot_l) - l;
+        let r_dot_v = r.dot(view);
+        // No highlight without a specular colour (the product would be zero anyway).
+        let spec = if r_dot_v > 0.0 && highlight_matters(sh) {
+            libm::powf(r_dot_v, sh.shininess)
+        } else {
+            0.0
+        };
+        let term = sh.diffuse * n_dot_l + sh.specular * spec;
+        color += light.color * light.amount * term;
+    }
+    color
+}
+
+/// The direction and media of the ray refracted at `s`, or `None` on total internal reflection.
+fn refracted(scene: &Scene, s: &Surface, d: Vec3, media: &Media) -> Option<(Vec3, Media)> {
+    let ior = scene.shaders[s.shader].ior;
+    let (n1, n2, next) = if s.entering {
+        (media.current(), ior, media.entered(s.medium, ior))
+    } else {
+        let next = media.left(s.medium);
+        (media.ior_of(s.medium).unwrap_or(ior), next.current(), next)
+    };
+    let mut dir = refract(d, s.shading, n1, n2)?;
+    if dir.dot(s.geometric) >= 0.0 {
+        // The smooth normal bent the ray back out; use the true one.
+        dir = refract(d, s.geometric, n1, n2)?;
+    }
+    Some((dir, next))
+}
+
+/// How a hit splits the path's colour: the mirror ray's share, the refracted ray (direction and
+/// the media it enters) with its share, and what is left for the local colour.
+struct Split {
+    mirror_share: f32,
+    refraction: Option<(Vec3, Media)>,
+    refract_share: f32,
+    local_share: f32,
+}
+
+/// The colour seen along a primary ray, following its reflections and refractions. `seed`
+/// selects the sample pattern of ambient occlusion (see [`crate::render::sampling`]).
+pub fn trace(
+    scene: &Scene,
+    primary: Ray,
+    seed: u32,
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
+    let settings = &scene.settings;
+    let mut color = Vec3::ZERO;
+    scratch.pending.clear();
+    scratch.pending.push(Pending {
+        ray: primary,
+        weight: 1.0,
+        depth: 0,
+        media: Media::OUTSIDE,
+    });
+    let mut bounce = 0u32;
+    while let Some(p) = scratch.pending.pop() {
+        let spans = &mut scratch.spans;
+        let Some(hit) = scene.closest_hit(&p.ray, f32::INFINITY, spans) else {
+            color += settings.background * p.weight;
+            continue;
+        };
+        let s = surface(scene, &p.ray, &hit);
+        let view = -p.ray.dir.normalize();
+        let d = -view;
+        let split = split(scene, &s, d, &p);
+        let naive = !settings.skip_effects;
+        if split.local_share > 0.0 || naive {
+            let local = local_color(scene, &s, view, mix(seed, bounce), spans, counts);
+            if split.local_share > 0.0 {
+                color += local * (split.local_share * p.weight);
+            }
+        }
+        bounce += 1;
+        if naive {
+            trace_dropped_branches(scene, &s, d, &p, &split, spans, counts);
+        }
+        push_branches(&s, d, &p, split, &mut scratch.pending, counts);
+    }
+    color
+}
+
+/// The shares of a hit: the mirror ray, unless its share cannot matter; the refracted ray
+/// likewise, with total internal reflection adding the refracted share to the mirror ray.
+fn split(scene: &Scene, s: &Surface, d: Vec3, p: &Pending) -> Split {
+    let settings = &scene.settings;
+    let sh = &scene.shaders[s.shader];
+    let r = sh.reflection;
+    // Validation checks `r + t <= 1` on the rounded sum; the clamp makes `t <= 1 - r` exact.
+    let tr = sh.transparency.clamp(0.0, 1.0 - r);
+    let mut mirror_share = 0.0f32;
+    if mirror_ray_matters(settings, r, p.weight, p.depth) {
+        mirror_share = r;
+    }
+    let mut refraction = None;
+    if refraction_ray_matters(settings, tr, p.weight, p.depth) {
+        match refracted(scene, s, d, &p.media) {
+            Some(t) => refraction = Some(t),
+            None => mirror_share += tr,
+        }
+    }
+    let refract_share = if refraction.is_some() { tr } else { 0.0 };
+    Split {
+        mirror_share,
+        refraction,
+        refract_share,
+        local_share: 1.0 - mirror_share - refract_share,
+    }
+}
+
+/// `--skip-effects off`: the mirror and refraction rays [`split`] left out, traced once and their
+/// answers dropped, as a naive tracer would send them.
+fn trace_dropped_branches(
+    scene: &Scene,
+    s: &Surface,
+    d: Vec3,
+    p: &Pending,
+    split: &Split,
+    spans: &mut SpanScratch,
+    counts: &mut RayCounts,
+) {
+    if split.mirror_share == 0.0 {
+        let dir = reflect(d, s.geometric);
+        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        counts.reflection += 1;
+        let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
+    }
+    if split.refraction.is_none() {
+        if let Some((dir, _)) = refracted(scene, s, d, &p.media) {
+            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+            counts.refraction += 1;
+            let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
+        }
+    }
+}
+
+/// Queues the refracted ray, then the mirror ray, so the mirror ray is traced first.
+fn push_branches(
+    s: &Surface,
+    d: Vec3,
+    p: &Pending,
+    split: Split,
+    pending: &mut Vec<Pending>,
+    counts: &mut RayCounts,
+) {
+    if let Some((dir, media)) = split.refraction {
+        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        pending.push(Pending {
+            ray: Ray::new(origin, dir),
+            weight: p.weight * split.refract_share,
+            depth: p.depth + 1,
+            media,
+        });
+        counts.refraction += 1;
+    }
+    if split.mirror_share > 0.0 {
+        // Mirror about the shading normal; if that dips under the surface, about the true one.
+        let mut dir = reflect(d, s.shading);
+        if dir.dot(s.geometric) <= 0.0 {
+            dir = reflect(d, s.geometric);
+        }
+        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        pending.push(Pending {
+            ray: Ray::new(origin, dir),
+            weight: p.weight * split.mirror_share,
+            depth: p.depth + 1,
+            media: p.media,
+        });
+        counts.reflection += 1;
+    }
+}

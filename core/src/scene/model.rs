@@ -1,0 +1,112 @@
+//! The scene as loaders describe it: geometry, materials, lights, camera and settings (seed
+//! sections 2.5 and 2.6). Nothing here is checked; [`SceneDesc::validate`](super::validate) is.
+
+use super::camera::Camera;
+use super::settings::RenderSettings;
+use crate::geom::solid::SolidNode;
+use alloc::vec::Vec;
+use glam::Vec3;
+/// The largest image side, in pixels, that a scene accepts.
+pub const MAX_IMAGE_SIDE: u32 = 32768;
+
+/// A Phong material (`_SHD`): colours per channel in `[0, 1]`, a shininess exponent and the share
+/// of reflected colour.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Shader {
+    /// Ambient colour, added regardless of lights.
+    pub ambient: Vec3,
+    /// Diffuse colour, scaled by `max(0, N·L)`.
+    pub diffuse: Vec3,
+    /// Specular colour, scaled by `max(0, R·V)^shininess`.
+    pub specular: Vec3,
+    /// Phong exponent.
+    pub shininess: f32,
+    /// Reflection-Amount `r`: colour = (1 − r − t)·local + r·reflected + t·refracted.
+    pub reflection: f32,
+    /// Transparency `t`: the share of colour seen through the surface (0 for the seed's shaders).
+    pub transparency: f32,
+    /// Index of refraction of the material behind the surface (1 for the seed's shaders).
+    pub ior: f32,
+}
+
+impl Shader {
+    /// An opaque Phong shader with the seed's fields.
+    pub fn phong(
+        ambient: Vec3,
+        diffuse: Vec3,
+        specular: Vec3,
+        shininess: f32,
+        reflection: f32,
+    ) -> Self {
+        Shader {
+            ambient,
+            diffuse,
+            specular,
+            shininess,
+            reflection,
+            transparency: 0.0,
+            ior: 1.0,
+        }
+    }
+}
+
+/// A point light (`_LIGHT`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Light {
+    /// Position.
+    pub position: Vec3,
+    /// Colour.
+    pub color: Vec3,
+    /// Intensity factor ("Amount").
+    pub amount: f32,
+    /// Whether the light casts shadows (ShadowCasting flag).
+    pub casts_shadows: bool,
+}
+
+/// A triangle (`_TR`): three point indices and a shader index, all 0-based.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct TriangleDesc {
+    /// Indices into [`SceneDesc::points`].
+    pub points: [u32; 3],
+    /// Index into [`SceneDesc::shaders`].
+    pub shader: u32,
+    /// Indices into [`SceneDesc::normals`] for the corners' shading normals (OBJ `vn`, NFF `pp`);
+    /// `None` computes smooth normals from the neighbouring faces, as the seed does.
+    pub normals: Option<[u32; 3]>,
+}
+
+impl TriangleDesc {
+    /// A triangle with computed smooth normals.
+    pub fn new(points: [u32; 3], shader: u32) -> Self {
+        TriangleDesc {
+            points,
+            shader,
+            normals: None,
+        }
+    }
+}
+
+/// A scene as loaded from files: geometry, materials, lights, camera and settings.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SceneDesc {
+    /// Vertex positions (`_PT`).
+    pub points: Vec<Vec3>,
+    /// Triangles (`_TR`).
+    pub triangles: Vec<TriangleDesc>,
+    /// Shaders (`_SHD`).
+    pub shaders: Vec<Shader>,
+    /// Lights (`_LIGHT`).
+    pub lights: Vec<Light>,
+    /// Shading normals that triangles may name ([`TriangleDesc::normals`]).
+    pub normals: Vec<Vec3>,
+    /// The arena of analytic solids and CSG nodes.
+    pub solids: Vec<SolidNode>,
+    /// The solids that are scene objects: indices of root nodes in [`SceneDesc::solids`].
+    pub objects: Vec<u32>,
+    /// Object-space triangles of the closed meshes used as solids ([`SolidNode::Mesh`]).
+    pub solid_triangles: Vec<[Vec3; 3]>,
+    /// The camera.
+    pub camera: Camera,
+    /// Image size and switches.
+    pub settings: RenderSettings,
+}

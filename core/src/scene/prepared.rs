@@ -1,0 +1,146 @@
+//! [`Scene`], the prepared form of a [`SceneDesc`]: validated, with smooth vertex normals (the
+//! area-weighted average of the adjacent faces' normals, seed section 3.2.2.1), solids, the
+//! resolved occlusion distance, the derived effects and the octree. Renderers only ever see a
+//! [`Scene`].
+
+use super::camera::CameraFrame;
+use super::effects::Effects;
+use super::error::SceneError;
+use super::model::{Light, SceneDesc, Shader};
+use super::settings::RenderSettings;
+use crate::accel::octree::{Octree, OctreeParams};
+use crate::geom::solid::prepared::Solids;
+use crate::geom::triangle::{area_normal, unit_normal};
+use crate::math::aabb::Aabb;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// A scene prepared for rendering: validated, with vertex normals, solids and the octree.
+///
+/// Primitives are numbered triangles first (`0..T`), then solid objects (`T..`); the octree files
+/// both, and unbounded solids (half-spaces and what contains them) are tested beside it.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Image size and switches.
+    pub settings: RenderSettings,
+    /// Shaders, indexed by [`Scene::triangle_shader`] and the solids' leaves.
+    pub shaders: Vec<Shader>,
+    /// Lights.
+    pub lights: Vec<Light>,
+    /// The camera's frame for the image size.
+    pub camera: CameraFrame,
+    /// Vertex positions of each triangle, by triangle index.
+    pub triangle_points: Vec<[Vec3; 3]>,
+    /// Smooth normal at each corner of each triangle, by triangle index (unit length).
+    pub triangle_normals: Vec<[Vec3; 3]>,
+    /// Shader index of each triangle.
+    pub triangle_shader: Vec<u32>,
+    /// Number of triangles with zero area, in the triangle list and in the meshes of CSG
+    /// solids (kept, but never hit).
+    pub degenerate_triangles: u32,
+    /// The analytic solids and CSG objects.
+    pub solids: Solids,
+    /// Solid objects with no bounding box (indices into the objects), tested for every ray.
+    pub unbounded: Vec<u32>,
+    /// The box around every bounded primitive.
+    pub bounds: Aabb,
+    /// How far occlusion rays look (resolved from [`RenderSettings::ao_distance`]).
+    pub ao_distance: f32,
+    /// The effects that can change a pixel, derived before rendering.
+    pub effects: Effects,
+    /// The acceleration structure over triangles and bounded solids.
+    pub octree: Octree,
+}
+
+impl Scene {
+    /// Validates `desc`, computes smooth vertex normals and builds the octree with `params`.
+    ///
+    /// # Errors
+    /// A [`SceneError`] for a missing shader or light, an index out of range, a non-finite number,
+    /// a bad image size, or more elements than `u32` indices address.
+    pub fn build(desc: &SceneDesc, params: &OctreeParams) -> Result<Scene, SceneError> {
+        desc.validate()?;
+        let n_points = desc.points.len();
+        let triangle_points: Vec<[Vec3; 3]> = desc
+            .triangles
+            .iter()
+            .map(|t| t.points.map(|i| desc.points[i as usize]))
+            .collect();
+
+        // Area-weighted vertex normals: the unnormalised face normal has length 2·area.
+        let mut point_normals = alloc::vec![Vec3::ZERO; n_points];
+        let mut degenerate = 0u32;
+        let mut face_normals = Vec::with_capacity(triangle_points.len());
+        for (t, p) in desc.triangles.iter().zip(&triangle_points) {
+            let unit = unit_normal(p);
+            match unit {
+                None => degenerate += 1,
+                Some(_) => {
+                    let n = area_normal(p);
+                    for &i in &t.points {
+                        point_normals[i as usize] += n;
+                    }
+                }
+            }
+            face_normals.push(unit.unwrap_or(Vec3::ZERO));
+        }
+        let triangle_normals = desc
+            .triangles
+            .iter()
+            .zip(&face_normals)
+            .map(|(t, &face)| {
+                if let Some(given) = t.normals {
+                    // Checked by `validate`: in range and not zero.
+                    return given.map(|i| desc.normals[i as usize].normalize_or_zero());
+                }
+                t.points.map(|i| {
+                    let n = point_normals[i as usize].normalize_or_zero();
+                    // A corner whose neighbours cancel out falls back to the face normal.
+                    if n == Vec3::ZERO {
+                        face
+                    } else {
+                        n
+                    }
+                })
+            })
+            .collect();
+
+        degenerate += desc
+            .solid_triangles
+            .iter()
+            .filter(|p| unit_normal(p).is_none())
+            .count() as u32;
+        let solids = Solids::new(&desc.solids, &desc.objects, &desc.solid_triangles);
+        let unbounded = (0..solids.len() as u32)
+            .filter(|&j| solids.bounds()[j as usize].is_none())
+            .collect();
+        let octree = Octree::build_mixed(&triangle_points, solids.bounds(), params);
+        let bounds = octree.bounds();
+        let ao_distance = if desc.settings.ao_distance > 0.0 {
+            desc.settings.ao_distance
+        } else {
+            let diagonal = (bounds.max - bounds.min).length();
+            if diagonal > 0.0 && diagonal.is_finite() {
+                0.1 * diagonal
+            } else {
+                1.0
+            }
+        };
+        Ok(Scene {
+            settings: desc.settings,
+            shaders: desc.shaders.clone(),
+            lights: desc.lights.clone(),
+            camera: CameraFrame::new(&desc.camera, desc.settings.width, desc.settings.height),
+            triangle_points,
+            triangle_normals,
+            triangle_shader: desc.triangles.iter().map(|t| t.shader).collect(),
+            degenerate_triangles: degenerate,
+            solids,
+            unbounded,
+            bounds,
+            ao_distance,
+            effects: Effects::derive(&desc.shaders, &desc.lights, &desc.settings),
+            octree,
+        })
+    }
+}

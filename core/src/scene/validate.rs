@@ -1,0 +1,161 @@
+//! [`SceneDesc::validate`]: the seed's rules and every index and number, checked before a scene
+//! is prepared.
+
+use super::camera::Camera;
+use super::error::SceneError;
+use super::model::{SceneDesc, MAX_IMAGE_SIDE};
+use super::settings::{MAX_AMBIENT_OCCLUSION, MAX_SAMPLES};
+use crate::geom::solid::{SolidNode, MAX_CSG_DEPTH};
+use alloc::vec::Vec;
+use glam::Vec3;
+
+fn finite(v: Vec3) -> bool {
+    v.x.is_finite() && v.y.is_finite() && v.z.is_finite()
+}
+
+impl SceneDesc {
+    /// Checks the rules the seed states and every index and number.
+    ///
+    /// # Errors
+    /// The first [`SceneError`] found.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let s = &self.settings;
+        if s.width == 0 || s.height == 0 || s.width > MAX_IMAGE_SIDE || s.height > MAX_IMAGE_SIDE {
+            return Err(SceneError::BadImageSize);
+        }
+        if self.shaders.is_empty() {
+            return Err(SceneError::NoShader);
+        }
+        if self.lights.is_empty() {
+            return Err(SceneError::NoLight);
+        }
+        if u32::try_from(self.points.len()).is_err() || u32::try_from(self.triangles.len()).is_err()
+        {
+            return Err(SceneError::TooLarge);
+        }
+        if u32::try_from(self.normals.len()).is_err() || u32::try_from(self.solids.len()).is_err() {
+            return Err(SceneError::TooLarge);
+        }
+        let numbers_ok = self.points.iter().all(|&p| finite(p))
+            && self.normals.iter().all(|&n| finite(n))
+            && self.solid_triangles.iter().flatten().all(|&p| finite(p))
+            && self.shaders.iter().all(|sh| {
+                finite(sh.ambient)
+                    && finite(sh.diffuse)
+                    && finite(sh.specular)
+                    && sh.shininess.is_finite()
+                    && sh.reflection.is_finite()
+                    && sh.transparency.is_finite()
+                    && sh.ior.is_finite()
+            })
+            && self
+                .lights
+                .iter()
+                .all(|l| finite(l.position) && finite(l.color) && l.amount.is_finite())
+            && finite(s.background)
+            && s.min_reflection_weight.is_finite()
+            && s.ao_distance.is_finite()
+            && s.aa_threshold.is_finite();
+        if !numbers_ok {
+            return Err(SceneError::NonFiniteNumber);
+        }
+        if !self.camera.is_valid() {
+            return Err(match self.camera {
+                Camera::Seed(_) => SceneError::NonFiniteNumber,
+                Camera::LookAt(_) => SceneError::BadCamera,
+            });
+        }
+        if s.samples == 0
+            || s.samples > MAX_SAMPLES
+            || s.ambient_occlusion > MAX_AMBIENT_OCCLUSION
+            || s.ao_distance < 0.0
+        {
+            return Err(SceneError::BadSettings);
+        }
+        for (i, sh) in self.shaders.iter().enumerate() {
+            let unit = |v: f32| (0.0..=1.0).contains(&v);
+            if !unit(sh.reflection)
+                || !unit(sh.transparency)
+                || sh.reflection + sh.transparency > 1.0
+                || sh.ior <= 0.0
+            {
+                return Err(SceneError::BadShader { shader: i as u32 });
+            }
+        }
+        if let Some(i) = self.normals.iter().position(|&n| n == Vec3::ZERO) {
+            return Err(SceneError::ZeroNormal { normal: i as u32 });
+        }
+        self.validate_solids()?;
+        for (i, t) in self.triangles.iter().enumerate() {
+            if t.points.iter().any(|&p| p as usize >= self.points.len()) {
+                return Err(SceneError::PointIndexOutOfRange { triangle: i as u32 });
+            }
+            if t.shader as usize >= self.shaders.len() {
+                return Err(SceneError::ShaderIndexOutOfRange { triangle: i as u32 });
+            }
+            if let Some(n) = t.normals {
+                if n.iter().any(|&k| k as usize >= self.normals.len()) {
+                    return Err(SceneError::NormalIndexOutOfRange { triangle: i as u32 });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the solid arena: parameters, transforms, shaders, operand order and depth.
+    fn validate_solids(&self) -> Result<(), SceneError> {
+        let mut depth: Vec<u32> = Vec::with_capacity(self.solids.len());
+        for (i, node) in self.solids.iter().enumerate() {
+            let solid = i as u32;
+            let d = match *node {
+                SolidNode::Leaf {
+                    shape,
+                    transform,
+                    shader,
+                } => {
+                    if !shape.is_valid() || !transform.is_valid() {
+                        return Err(SceneError::BadSolid { solid });
+                    }
+                    if shader as usize >= self.shaders.len() {
+                        return Err(SceneError::SolidShaderOutOfRange { solid });
+                    }
+                    0
+                }
+                SolidNode::Mesh {
+                    first,
+                    count,
+                    transform,
+                    shader,
+                } => {
+                    let end = u64::from(first) + u64::from(count);
+                    if count == 0
+                        || end > self.solid_triangles.len() as u64
+                        || !transform.is_valid()
+                    {
+                        return Err(SceneError::BadSolid { solid });
+                    }
+                    if shader as usize >= self.shaders.len() {
+                        return Err(SceneError::SolidShaderOutOfRange { solid });
+                    }
+                    0
+                }
+                SolidNode::Csg { a, b, .. } => {
+                    if a >= solid || b >= solid {
+                        return Err(SceneError::SolidIndexOutOfRange { solid });
+                    }
+                    1 + depth[a as usize].max(depth[b as usize])
+                }
+            };
+            if d > MAX_CSG_DEPTH {
+                return Err(SceneError::CsgTooDeep);
+            }
+            depth.push(d);
+        }
+        for (i, &root) in self.objects.iter().enumerate() {
+            if root as usize >= self.solids.len() {
+                return Err(SceneError::SolidIndexOutOfRange { solid: i as u32 });
+            }
+        }
+        Ok(())
+    }
+}

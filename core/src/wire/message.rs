@@ -1,0 +1,275 @@
+//! The messages: [`MasterMessage`] from master to worker, [`WorkerMessage`] back.
+//!
+//! Messages borrow their byte fields (names, scene chunks, pixels) from the frame they were
+//! decoded from, so decoding allocates nothing. [`MasterMessage::decode`] and
+//! [`WorkerMessage::decode`] check every size limit; checks that need context (does this line
+//! exist, is this the job in progress, is the pixel count the image width) are the receiver's.
+//! Pixels travel as fixed-point integers ([`encode_pixels`], [`decode_pixels`]), never as floats.
+
+use crate::render::pixel::Pixel;
+use crate::render::stats::RayCounts;
+use crate::scene::error::SceneError;
+use crate::wire::error::ProtocolError;
+use crate::wire::{
+    MAX_CHUNK_LEN, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES,
+};
+use serde::{Deserialize, Serialize};
+
+/// A SHA-256 digest that names a scene's encoding.
+pub type Digest = [u8; 32];
+
+/// The first message each side sends: protocol version and what the node is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Hello<'a> {
+    /// [`crate::wire::PROTOCOL_VERSION`] of the sender. Always the first field.
+    pub version: u32,
+    /// The node's name (host name, board name), at most [`MAX_NAME_LEN`] bytes.
+    pub name: &'a str,
+    /// The node's architecture (`x86_64`, `thumbv7em`, ...), at most [`MAX_NAME_LEN`] bytes.
+    pub arch: &'a str,
+    /// Bytes of memory the node can give a scene (0 from a master).
+    pub scene_memory: u64,
+}
+
+impl Hello<'_> {
+    fn check(&self) -> Result<(), ProtocolError> {
+        if self.name.len() > MAX_NAME_LEN || self.arch.len() > MAX_NAME_LEN {
+            return Err(ProtocolError::NameTooLong);
+        }
+        Ok(())
+    }
+}
+
+/// Master to worker.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MasterMessage<'a> {
+    /// Opens (or restarts) a session. Stays variant 0 in every protocol version.
+    #[serde(borrow)]
+    Hello(Hello<'a>),
+    /// Announces the job the next line requests belong to and the scene it renders. The worker
+    /// answers `Ready` if it has the scene cached, `NeedScene` otherwise, `Refused` if it cannot
+    /// hold it. Sent again if no answer comes.
+    Job {
+        /// Job number, chosen by the master.
+        job: u32,
+        /// Digest of the scene's encoding.
+        digest: Digest,
+        /// Length of the scene's encoding in bytes, 1 to [`MAX_SCENE_LEN`].
+        scene_len: u32,
+    },
+    /// Bytes `offset..offset + bytes.len()` of the scene named by `digest`.
+    SceneChunk {
+        /// The scene these bytes belong to.
+        digest: Digest,
+        /// Position of the first byte in the scene's encoding.
+        offset: u32,
+        /// At most [`MAX_CHUNK_LEN`] bytes.
+        bytes: &'a [u8],
+    },
+    /// Render one line of the job's image and send a `LineResult` (`refined: false`). With
+    /// adaptive multisampling this is the first pass: the pixels' centre colours. Requests are
+    /// answered in the order they arrive.
+    RenderLine {
+        /// The job.
+        job: u32,
+        /// The line, 0 is the top.
+        line: u32,
+    },
+    /// Answered by `FenceAck` with the same number after every earlier request: a request that
+    /// has no answer by then was lost on the link.
+    Fence {
+        /// Any number; echoed back.
+        seq: u32,
+    },
+    /// The master is done with this worker; the worker waits for the next master.
+    EndSession,
+    /// Adaptive multisampling's second pass: supersample the pixels of one line flagged in
+    /// `mask` and send a `LineResult` (`refined: true`) with them (other pixels black).
+    RefineLine {
+        /// The job.
+        job: u32,
+        /// The line, 0 is the top.
+        line: u32,
+        /// One bit per pixel (`crate::render::adaptive::mask_len` bytes), at most [`MAX_MASK_LEN`].
+        mask: &'a [u8],
+    },
+}
+
+/// Why a worker refuses a job or request.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Refusal {
+    /// The scene needs more memory than the worker can give it.
+    SceneTooLarge {
+        /// The worker's limit in bytes.
+        limit: u64,
+    },
+    /// The scene arrived but does not describe a renderable scene.
+    BadScene(SceneError),
+    /// The scene's bytes did not decode or did not match their digest.
+    CorruptScene,
+    /// A request named a job the worker has not been given, or whose scene is not loaded yet.
+    UnknownJob,
+    /// A request named a line outside the image.
+    LineOutOfRange,
+    /// A `RefineLine` whose mask does not fit the image width, or for a scene without adaptive
+    /// multisampling.
+    BadMask,
+}
+
+/// Worker to master.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WorkerMessage<'a> {
+    /// The answer to the master's `Hello`. Stays variant 0 in every protocol version.
+    #[serde(borrow)]
+    Hello(Hello<'a>),
+    /// The worker does not have the job's scene and wants its chunks from `offset` on.
+    NeedScene {
+        /// The job.
+        job: u32,
+        /// First byte wanted.
+        offset: u32,
+        /// `true`: (re)start sending at `offset` (the first request, or bytes were lost);
+        /// `false`: a window arrived whole, send the next one.
+        restart: bool,
+    },
+    /// The worker holds the job's scene and takes line requests.
+    Ready {
+        /// The job.
+        job: u32,
+    },
+    /// One rendered line.
+    LineResult {
+        /// The job it answers.
+        job: u32,
+        /// The line it answers.
+        line: u32,
+        /// `true` for a `RefineLine`'s answer, `false` for a `RenderLine`'s.
+        refined: bool,
+        /// Rays traced for it, by kind.
+        rays: RayCounts,
+        /// The line's pixels, [`PIXEL_WIRE_BYTES`] each ([`encode_pixels`]).
+        pixels: &'a [u8],
+    },
+    /// The answer to `Fence`.
+    FenceAck {
+        /// The fence's number.
+        seq: u32,
+    },
+    /// The worker dropped a frame it could not read (so a request may be lost).
+    Dropped {
+        /// Frames dropped since the session began.
+        total: u32,
+    },
+    /// The worker cannot do what was asked.
+    Refused {
+        /// The job concerned.
+        job: u32,
+        /// Why.
+        reason: Refusal,
+    },
+}
+
+impl<'a> MasterMessage<'a> {
+    /// Decodes a frame payload and checks the size limits.
+    ///
+    /// # Errors
+    /// [`ProtocolError::Decode`] if the bytes are not a message, or the limit it breaks.
+    pub fn decode(payload: &'a [u8]) -> Result<Self, ProtocolError> {
+        let msg: MasterMessage<'a> = decode_exact(payload)?;
+        match msg {
+            MasterMessage::Hello(h) => h.check()?,
+            MasterMessage::Job { scene_len, .. } => {
+                if scene_len == 0 || scene_len > MAX_SCENE_LEN {
+                    return Err(ProtocolError::SceneTooLarge);
+                }
+            }
+            MasterMessage::SceneChunk { offset, bytes, .. } => {
+                if bytes.is_empty()
+                    || bytes.len() > MAX_CHUNK_LEN
+                    || u64::from(offset) + bytes.len() as u64 > u64::from(MAX_SCENE_LEN)
+                {
+                    return Err(ProtocolError::BadChunk);
+                }
+            }
+            MasterMessage::RefineLine { mask, .. } => {
+                if mask.is_empty() || mask.len() > MAX_MASK_LEN {
+                    return Err(ProtocolError::BadMask);
+                }
+            }
+            MasterMessage::RenderLine { .. }
+            | MasterMessage::Fence { .. }
+            | MasterMessage::EndSession => {}
+        }
+        Ok(msg)
+    }
+}
+
+impl<'a> WorkerMessage<'a> {
+    /// Decodes a frame payload and checks the size limits.
+    ///
+    /// # Errors
+    /// [`ProtocolError::Decode`] if the bytes are not a message, or the limit it breaks.
+    pub fn decode(payload: &'a [u8]) -> Result<Self, ProtocolError> {
+        let msg: WorkerMessage<'a> = decode_exact(payload)?;
+        match msg {
+            WorkerMessage::Hello(h) => h.check()?,
+            WorkerMessage::LineResult { pixels, .. } => {
+                if pixels.is_empty()
+                    || pixels.len() % PIXEL_WIRE_BYTES != 0
+                    || pixels.len() > MAX_WIDTH as usize * PIXEL_WIRE_BYTES
+                {
+                    return Err(ProtocolError::BadPixels);
+                }
+            }
+            WorkerMessage::NeedScene { .. }
+            | WorkerMessage::Ready { .. }
+            | WorkerMessage::FenceAck { .. }
+            | WorkerMessage::Dropped { .. }
+            | WorkerMessage::Refused { .. } => {}
+        }
+        Ok(msg)
+    }
+}
+
+/// Decodes a whole payload: bytes left over make it invalid too.
+fn decode_exact<'a, T: Deserialize<'a>>(payload: &'a [u8]) -> Result<T, ProtocolError> {
+    match postcard::take_from_bytes(payload) {
+        Ok((msg, [])) => Ok(msg),
+        _ => Err(ProtocolError::Decode),
+    }
+}
+
+/// Writes `pixels` as little-endian `u16` channels into `out`, which must be
+/// `pixels.len() × PIXEL_WIRE_BYTES` long.
+///
+/// # Errors
+/// [`ProtocolError::BadPixels`] if `out` has the wrong length.
+pub fn encode_pixels(pixels: &[Pixel], out: &mut [u8]) -> Result<(), ProtocolError> {
+    if out.len() != pixels.len() * PIXEL_WIRE_BYTES {
+        return Err(ProtocolError::BadPixels);
+    }
+    for (p, o) in pixels.iter().zip(out.chunks_exact_mut(PIXEL_WIRE_BYTES)) {
+        for (c, b) in p.0.iter().zip(o.chunks_exact_mut(2)) {
+            b.copy_from_slice(&c.to_le_bytes());
+        }
+    }
+    Ok(())
+}
+
+/// Reads pixels written by [`encode_pixels`]; `bytes` must hold exactly `out.len()` pixels.
+///
+/// # Errors
+/// [`ProtocolError::BadPixels`] if the lengths do not match.
+pub fn decode_pixels(bytes: &[u8], out: &mut [Pixel]) -> Result<(), ProtocolError> {
+    if bytes.len() != out.len() * PIXEL_WIRE_BYTES {
+        return Err(ProtocolError::BadPixels);
+    }
+    for (p, b) in out.iter_mut().zip(bytes.chunks_exact(PIXEL_WIRE_BYTES)) {
+        *p = Pixel([
+            u16::from_le_bytes([b[0], b[1]]),
+            u16::from_le_bytes([b[2], b[3]]),
+            u16::from_le_bytes([b[4], b[5]]),
+        ]);
+    }
+    Ok(())
+}
