@@ -60,51 +60,12 @@ impl Scene {
     /// a bad image size, or more elements than `u32` indices address.
     pub fn build(desc: &SceneDesc, params: &OctreeParams) -> Result<Scene, SceneError> {
         desc.validate()?;
-        let n_points = desc.points.len();
         let triangle_points: Vec<[Vec3; 3]> = desc
             .triangles
             .iter()
             .map(|t| t.points.map(|i| desc.points[i as usize]))
             .collect();
-
-        // Area-weighted vertex normals: the unnormalised face normal has length 2·area.
-        let mut point_normals = alloc::vec![Vec3::ZERO; n_points];
-        let mut degenerate = 0u32;
-        let mut face_normals = Vec::with_capacity(triangle_points.len());
-        for (t, p) in desc.triangles.iter().zip(&triangle_points) {
-            let unit = unit_normal(p);
-            match unit {
-                None => degenerate += 1,
-                Some(_) => {
-                    let n = area_normal(p);
-                    for &i in &t.points {
-                        point_normals[i as usize] += n;
-                    }
-                }
-            }
-            face_normals.push(unit.unwrap_or(Vec3::ZERO));
-        }
-        let triangle_normals = desc
-            .triangles
-            .iter()
-            .zip(&face_normals)
-            .map(|(t, &face)| {
-                if let Some(given) = t.normals {
-                    // Checked by `validate`: in range and not zero.
-                    return given.map(|i| desc.normals[i as usize].normalize_or_zero());
-                }
-                t.points.map(|i| {
-                    let n = point_normals[i as usize].normalize_or_zero();
-                    // A corner whose neighbours cancel out falls back to the face normal.
-                    if n == Vec3::ZERO {
-                        face
-                    } else {
-                        n
-                    }
-                })
-            })
-            .collect();
-
+        let (triangle_normals, mut degenerate) = smooth_normals(desc, &triangle_points);
         degenerate += desc
             .solid_triangles
             .iter()
@@ -116,16 +77,6 @@ impl Scene {
             .collect();
         let octree = Octree::build_mixed(&triangle_points, solids.bounds(), params);
         let bounds = octree.bounds();
-        let ao_distance = if desc.settings.ao_distance > 0.0 {
-            desc.settings.ao_distance
-        } else {
-            let diagonal = (bounds.max - bounds.min).length();
-            if diagonal > 0.0 && diagonal.is_finite() {
-                0.1 * diagonal
-            } else {
-                1.0
-            }
-        };
         Ok(Scene {
             settings: desc.settings,
             shaders: desc.shaders.clone(),
@@ -138,9 +89,67 @@ impl Scene {
             solids,
             unbounded,
             bounds,
-            ao_distance,
+            ao_distance: occlusion_distance(&desc.settings, &bounds),
             effects: Effects::derive(&desc.shaders, &desc.lights, &desc.settings),
             octree,
         })
+    }
+}
+
+/// The shading normal at each corner of each triangle, and how many triangles have no area.
+///
+/// A corner's normal is the one the triangle names, else the area-weighted average of the
+/// adjacent faces' normals (the unnormalised face normal has length 2·area), else, where the
+/// neighbours cancel out, the face's own normal.
+fn smooth_normals(desc: &SceneDesc, triangle_points: &[[Vec3; 3]]) -> (Vec<[Vec3; 3]>, u32) {
+    let mut point_normals = alloc::vec![Vec3::ZERO; desc.points.len()];
+    let mut degenerate = 0u32;
+    let mut face_normals = Vec::with_capacity(triangle_points.len());
+    for (t, p) in desc.triangles.iter().zip(triangle_points) {
+        let unit = unit_normal(p);
+        match unit {
+            None => degenerate += 1,
+            Some(_) => {
+                let n = area_normal(p);
+                for &i in &t.points {
+                    point_normals[i as usize] += n;
+                }
+            }
+        }
+        face_normals.push(unit.unwrap_or(Vec3::ZERO));
+    }
+    let normals = desc
+        .triangles
+        .iter()
+        .zip(&face_normals)
+        .map(|(t, &face)| {
+            if let Some(given) = t.normals {
+                // Checked by `validate`: in range and not zero.
+                return given.map(|i| desc.normals[i as usize].normalize_or_zero());
+            }
+            t.points.map(|i| {
+                let n = point_normals[i as usize].normalize_or_zero();
+                if n == Vec3::ZERO {
+                    face
+                } else {
+                    n
+                }
+            })
+        })
+        .collect();
+    (normals, degenerate)
+}
+
+/// How far occlusion rays look: the settings' distance, or a tenth of the scene's bounding-box
+/// diagonal (1 for an empty or unbounded scene).
+fn occlusion_distance(settings: &RenderSettings, bounds: &Aabb) -> f32 {
+    if settings.ao_distance > 0.0 {
+        return settings.ao_distance;
+    }
+    let diagonal = (bounds.max - bounds.min).length();
+    if diagonal > 0.0 && diagonal.is_finite() {
+        0.1 * diagonal
+    } else {
+        1.0
     }
 }

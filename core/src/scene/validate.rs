@@ -29,14 +29,43 @@ impl SceneDesc {
         if self.lights.is_empty() {
             return Err(SceneError::NoLight);
         }
-        if u32::try_from(self.points.len()).is_err() || u32::try_from(self.triangles.len()).is_err()
+        let counts = [
+            self.points.len(),
+            self.triangles.len(),
+            self.normals.len(),
+            self.solids.len(),
+        ];
+        if counts.iter().any(|&n| u32::try_from(n).is_err()) {
+            return Err(SceneError::TooLarge);
+        }
+        if !self.numbers_are_finite() {
+            return Err(SceneError::NonFiniteNumber);
+        }
+        if !self.camera.is_valid() {
+            return Err(match self.camera {
+                Camera::Seed(_) => SceneError::NonFiniteNumber,
+                Camera::LookAt(_) => SceneError::BadCamera,
+            });
+        }
+        if s.samples == 0
+            || s.samples > MAX_SAMPLES
+            || s.ambient_occlusion > MAX_AMBIENT_OCCLUSION
+            || s.ao_distance < 0.0
         {
-            return Err(SceneError::TooLarge);
+            return Err(SceneError::BadSettings);
         }
-        if u32::try_from(self.normals.len()).is_err() || u32::try_from(self.solids.len()).is_err() {
-            return Err(SceneError::TooLarge);
+        self.validate_shaders()?;
+        if let Some(i) = self.normals.iter().position(|&n| n == Vec3::ZERO) {
+            return Err(SceneError::ZeroNormal { normal: i as u32 });
         }
-        let numbers_ok = self.points.iter().all(|&p| finite(p))
+        self.validate_solids()?;
+        self.validate_triangles()
+    }
+
+    /// Whether every coordinate, colour, factor and setting is a finite number.
+    fn numbers_are_finite(&self) -> bool {
+        let s = &self.settings;
+        self.points.iter().all(|&p| finite(p))
             && self.normals.iter().all(|&n| finite(n))
             && self.solid_triangles.iter().flatten().all(|&p| finite(p))
             && self.shaders.iter().all(|sh| {
@@ -55,23 +84,13 @@ impl SceneDesc {
             && finite(s.background)
             && s.min_reflection_weight.is_finite()
             && s.ao_distance.is_finite()
-            && s.aa_threshold.is_finite();
-        if !numbers_ok {
-            return Err(SceneError::NonFiniteNumber);
-        }
-        if !self.camera.is_valid() {
-            return Err(match self.camera {
-                Camera::Seed(_) => SceneError::NonFiniteNumber,
-                Camera::LookAt(_) => SceneError::BadCamera,
-            });
-        }
-        if s.samples == 0
-            || s.samples > MAX_SAMPLES
-            || s.ambient_occlusion > MAX_AMBIENT_OCCLUSION
-            || s.ao_distance < 0.0
-        {
-            return Err(SceneError::BadSettings);
-        }
+            && s.aa_threshold.is_finite()
+    }
+
+    /// Checks each shader's shares: reflection and transparency in `[0, 1]` with a sum of at
+    /// most 1, and a positive index of refraction. The one check of these on the way from a
+    /// scene file to the pixel.
+    fn validate_shaders(&self) -> Result<(), SceneError> {
         for (i, sh) in self.shaders.iter().enumerate() {
             let unit = |v: f32| (0.0..=1.0).contains(&v);
             if !unit(sh.reflection)
@@ -82,10 +101,11 @@ impl SceneDesc {
                 return Err(SceneError::BadShader { shader: i as u32 });
             }
         }
-        if let Some(i) = self.normals.iter().position(|&n| n == Vec3::ZERO) {
-            return Err(SceneError::ZeroNormal { normal: i as u32 });
-        }
-        self.validate_solids()?;
+        Ok(())
+    }
+
+    /// Checks each triangle's point, shader and normal indices.
+    fn validate_triangles(&self) -> Result<(), SceneError> {
         for (i, t) in self.triangles.iter().enumerate() {
             if t.points.iter().any(|&p| p as usize >= self.points.len()) {
                 return Err(SceneError::PointIndexOutOfRange { triangle: i as u32 });

@@ -126,43 +126,8 @@ impl Octree {
                 cutoff = leaf(&self.indices[start..start + node.count as usize]);
                 continue;
             }
-            // Where the ray crosses each centre plane, and on which side it starts.
             let mid = e.cell.center();
-            let mut cross = [f32::INFINITY; 3];
-            let mut child = 0usize;
-            for a in 0..3 {
-                let d = ray.dir[a];
-                let upper = if d == 0.0 {
-                    ray.origin[a] >= mid[a]
-                } else {
-                    cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
-                    if d > 0.0 {
-                        e.t0 >= cross[a]
-                    } else {
-                        e.t0 < cross[a]
-                    }
-                };
-                child |= (upper as usize) << a;
-            }
-            // Plane crossings inside the interval, in ray order.
-            let mut events = [(f32::INFINITY, 0usize); 3];
-            let mut n = 0;
-            for (a, &c) in cross.iter().enumerate() {
-                if c > e.t0 && c < e.t1 {
-                    events[n] = (c, a);
-                    n += 1;
-                }
-            }
-            sort3(&mut events);
-            // Pieces: [t0, c1], [c1, c2], ..., [cn, t1], each widened around its inner crossings.
-            let mut pieces = [(0usize, 0.0f32, 0.0f32); 4];
-            let mut start = e.t0;
-            for (k, &(c, a)) in events[..n].iter().enumerate() {
-                pieces[k] = (child, start, c * (1.0 + widen));
-                child ^= 1 << a;
-                start = c * (1.0 - widen);
-            }
-            pieces[n] = (child, start, e.t1);
+            let (pieces, n) = pieces(ray, inv_dir, &e, mid, widen);
             // Push far pieces first so the nearest is popped next.
             for &(c, p0, p1) in pieces[..=n].iter().rev() {
                 let index = node.first + c as u32;
@@ -180,6 +145,56 @@ impl Octree {
             }
         }
     }
+}
+
+/// The children of `e`'s cell that the ray crosses, in ray order, as (child, t0, t1) pieces of
+/// the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]`, each widened by `widen` around its
+/// inner crossings of the centre planes through `mid`; returns them and the count less one.
+#[inline]
+fn pieces(
+    ray: &Ray,
+    inv_dir: Vec3,
+    e: &Entry,
+    mid: Vec3,
+    widen: f32,
+) -> ([(usize, f32, f32); 4], usize) {
+    // Where the ray crosses each centre plane, and on which side it starts.
+    let mut cross = [f32::INFINITY; 3];
+    let mut child = 0usize;
+    for a in 0..3 {
+        let d = ray.dir[a];
+        let upper = if d == 0.0 {
+            ray.origin[a] >= mid[a]
+        } else {
+            cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
+            if d > 0.0 {
+                e.t0 >= cross[a]
+            } else {
+                e.t0 < cross[a]
+            }
+        };
+        child |= (upper as usize) << a;
+    }
+    // Plane crossings inside the interval, in ray order.
+    let mut events = [(f32::INFINITY, 0usize); 3];
+    let mut n = 0;
+    for (a, &c) in cross.iter().enumerate() {
+        if c > e.t0 && c < e.t1 {
+            events[n] = (c, a);
+            n += 1;
+        }
+    }
+    sort3(&mut events);
+    // Pieces: [t0, c1], [c1, c2], ..., [cn, t1], each widened around its inner crossings.
+    let mut pieces = [(0usize, 0.0f32, 0.0f32); 4];
+    let mut start = e.t0;
+    for (k, &(c, a)) in events[..n].iter().enumerate() {
+        pieces[k] = (child, start, c * (1.0 + widen));
+        child ^= 1 << a;
+        start = c * (1.0 - widen);
+    }
+    pieces[n] = (child, start, e.t1);
+    (pieces, n)
 }
 
 /// Sorts three (t, axis) pairs by t; infinities (unused slots) sort last.

@@ -289,63 +289,8 @@ fn touching(enter: Crossing, mut exit: Crossing) -> Option<ShapeSpan> {
 
 fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     let half = 0.5 * h;
-    // Slab between the caps.
-    let (mut lo, mut hi, mut lo_face, mut hi_face) = if d.y == 0.0 {
-        // Parallel to the caps: the box's rule for rays in a face plane.
-        if !in_slab_parallel(o.y, half, position_error(o, d, 0.0)) {
-            return None;
-        }
-        (f32::NEG_INFINITY, f32::INFINITY, 1u32, 2u32)
-    } else {
-        let (a, b) = ((-half - o.y) / d.y, (half - o.y) / d.y);
-        if a <= b {
-            (a, b, 1, 2)
-        } else {
-            (b, a, 2, 1)
-        }
-    };
-    // Side: x² + z² = (r0 + k·(y + h/2))², inside where the left side is smaller. It is solved
-    // for `t − s` from the ray's point nearest the centre, `m = o + s·d`, not from `o`: from a
-    // far origin, `b²` and `4ac` would be huge and nearly equal, and their difference would lose
-    // the roots to cancellation (off by far more than a crossing's error bound). From `m`, every
-    // coefficient has the size of the shape (the remedy the sphere's discriminant uses too).
-    let s = nearest_to_centre(o, d);
-    let m = o + d * s;
-    let k = (r1 - r0) / h;
-    let r_m = r0 + k * (m.y + half);
-    let a = d.x * d.x + d.z * d.z - k * k * d.y * d.y;
-    let b = 2.0 * (m.x * d.x + m.z * d.z - k * r_m * d.y);
-    let c = m.x * m.x + m.z * m.z - r_m * r_m;
-    let disc = b * b - 4.0 * a * c;
-    let (side_lo, side_hi) = if a == 0.0 {
-        // Along a cone's generator (or the axis of a cylinder): linear.
-        if b == 0.0 {
-            if c > 0.0 {
-                return None;
-            }
-            (f32::NEG_INFINITY, f32::INFINITY)
-        } else if b > 0.0 {
-            (f32::NEG_INFINITY, s - c / b)
-        } else {
-            (s - c / b, f32::INFINITY)
-        }
-    } else {
-        let (t0, t1) = quadratic(a, b, disc, c)?;
-        let (t0, t1) = (s + t0, s + t1);
-        if a > 0.0 {
-            (t0, t1)
-        } else {
-            // Inside the double cone outside the roots: keep the piece that overlaps the slab
-            // most (the other nappe lies beyond the apex, outside the caps).
-            let below = (lo.max(f32::NEG_INFINITY), hi.min(t0));
-            let above = (lo.max(t1), hi.min(f32::INFINITY));
-            if below.1 - below.0 >= above.1 - above.0 {
-                (f32::NEG_INFINITY, t0)
-            } else {
-                (t1, f32::INFINITY)
-            }
-        }
-    };
+    let (mut lo, mut hi, mut lo_face, mut hi_face) = cap_slab(o, d, half)?;
+    let (side_lo, side_hi) = cone_side(r0, r1, h, o, d, (lo, hi))?;
     if side_lo > lo {
         lo = side_lo;
         lo_face = 0;
@@ -373,6 +318,68 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     let enter = crossing(o, d, lo, lo_face, along(lo, lo_face));
     let exit = crossing(o, d, hi, hi_face, along(hi, hi_face));
     touching(enter, exit)
+}
+
+/// The span of `t` between a cylinder's caps at `y = ±half`, with the faces (1 bottom, 2 top)
+/// where it enters and leaves; `None` for a ray parallel to the caps and outside their slab.
+fn cap_slab(o: Vec3, d: Vec3, half: f32) -> Option<(f32, f32, Face, Face)> {
+    if d.y == 0.0 {
+        // Parallel to the caps: the box's rule for rays in a face plane.
+        if !in_slab_parallel(o.y, half, position_error(o, d, 0.0)) {
+            return None;
+        }
+        return Some((f32::NEG_INFINITY, f32::INFINITY, 1, 2));
+    }
+    let (a, b) = ((-half - o.y) / d.y, (half - o.y) / d.y);
+    Some(if a <= b { (a, b, 1, 2) } else { (b, a, 2, 1) })
+}
+
+/// The span of `t` inside a cylinder's or cone's side, `x² + z² = (r0 + k·(y + h/2))²` (inside
+/// where the left side is smaller), given the caps' span `slab`.
+///
+/// It is solved for `t − s` from the ray's point nearest the centre, `m = o + s·d`, not from
+/// `o`: from a far origin, `b²` and `4ac` would be huge and nearly equal, and their difference
+/// would lose the roots to cancellation (off by far more than a crossing's error bound). From
+/// `m`, every coefficient has the size of the shape (the remedy the sphere's discriminant uses
+/// too).
+fn cone_side(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3, slab: (f32, f32)) -> Option<(f32, f32)> {
+    let (lo, hi) = slab;
+    let half = 0.5 * h;
+    let s = nearest_to_centre(o, d);
+    let m = o + d * s;
+    let k = (r1 - r0) / h;
+    let r_m = r0 + k * (m.y + half);
+    let a = d.x * d.x + d.z * d.z - k * k * d.y * d.y;
+    let b = 2.0 * (m.x * d.x + m.z * d.z - k * r_m * d.y);
+    let c = m.x * m.x + m.z * m.z - r_m * r_m;
+    let disc = b * b - 4.0 * a * c;
+    if a == 0.0 {
+        // Along a cone's generator (or the axis of a cylinder): linear.
+        return if b == 0.0 {
+            if c > 0.0 {
+                return None;
+            }
+            Some((f32::NEG_INFINITY, f32::INFINITY))
+        } else if b > 0.0 {
+            Some((f32::NEG_INFINITY, s - c / b))
+        } else {
+            Some((s - c / b, f32::INFINITY))
+        };
+    }
+    let (t0, t1) = quadratic(a, b, disc, c)?;
+    let (t0, t1) = (s + t0, s + t1);
+    if a > 0.0 {
+        return Some((t0, t1));
+    }
+    // Inside the double cone outside the roots: keep the piece that overlaps the slab most (the
+    // other nappe lies beyond the apex, outside the caps).
+    let below = (lo.max(f32::NEG_INFINITY), hi.min(t0));
+    let above = (lo.max(t1), hi.min(f32::INFINITY));
+    Some(if below.1 - below.0 >= above.1 - above.0 {
+        (f32::NEG_INFINITY, t0)
+    } else {
+        (t1, f32::INFINITY)
+    })
 }
 
 /// The outward normal (unit length) of `face` of `shape` at the object-space point `p`.
@@ -422,70 +429,79 @@ pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face
             let q = p - unit * (unit.dot(p) - d);
             (q, (q.abs() + Vec3::splat(d.abs())) * gamma(8))
         }
-        Shape::Cuboid { size } => {
-            let half = size * 0.5;
-            let axis = (face / 2) as usize;
-            let mut q = p;
-            q[axis] = if face % 2 == 1 {
-                half[axis]
-            } else {
-                -half[axis]
-            };
-            let mut err = rough;
-            err[axis] = 0.0;
-            // A ray within its rounding error of a face plane counts as inside that slab
-            // (`in_slab_parallel`, `in_face_plane`), and a ray that only touches an edge gets a
-            // span of length zero: either way the point may lie just beyond the face it names.
-            // It is pulled back onto the face, and the distance moved joins its error bound.
-            for b in (0..3).filter(|&b| b != axis) {
-                let inside = q[b].clamp(-half[b], half[b]);
-                err[b] += (q[b] - inside).abs();
-                q[b] = inside;
-            }
-            (q, err)
-        }
+        Shape::Cuboid { size } => cuboid_surface(size, p, rough, face),
         Shape::Cylinder {
             bottom_radius,
             top_radius,
             height,
-        } => {
-            let half = 0.5 * height;
-            let mut q = p;
-            let across = libm::sqrtf(p.x * p.x + p.z * p.z);
-            if face != 0 {
-                // On a cap: exactly on its plane, and (like a box's face) pulled back onto the
-                // disc if a ray that counts as inside the caps' slab or only touches the rim
-                // put it just beyond, the distance moved joining the error bound.
-                q.y = if face == 2 { half } else { -half };
-                let mut err = rough;
-                err.y = 0.0;
-                let r = if face == 2 { top_radius } else { bottom_radius };
-                if across > r {
-                    q.x = p.x * (r / across);
-                    q.z = p.z * (r / across);
-                    err.x += (p.x - q.x).abs();
-                    err.z += (p.z - q.z).abs();
-                }
-                return (q, err);
-            }
-            // On the side: between the caps (pulled back like a cap's point), moved across the
-            // axis onto the radius at its height.
-            q.y = p.y.clamp(-half, half);
-            let moved = (p.y - q.y).abs();
-            let k = (top_radius - bottom_radius) / height;
-            let r = (bottom_radius + k * (q.y + half)).max(0.0);
-            if across == 0.0 {
-                let mut err = rough;
-                err.y += moved;
-                return (q, err);
-            }
+        } => cylinder_surface((bottom_radius, top_radius, height), p, rough, face),
+    }
+}
+
+/// A box's hit point `p` (error bound `rough`) on `face`, put exactly on the face plane and
+/// within the face.
+fn cuboid_surface(size: Vec3, p: Vec3, rough: Vec3, face: Face) -> (Vec3, Vec3) {
+    let half = size * 0.5;
+    let axis = (face / 2) as usize;
+    let mut q = p;
+    q[axis] = if face % 2 == 1 {
+        half[axis]
+    } else {
+        -half[axis]
+    };
+    let mut err = rough;
+    err[axis] = 0.0;
+    // A ray within its rounding error of a face plane counts as inside that slab
+    // (`in_slab_parallel`, `in_face_plane`), and a ray that only touches an edge gets a
+    // span of length zero: either way the point may lie just beyond the face it names.
+    // It is pulled back onto the face, and the distance moved joins its error bound.
+    for b in (0..3).filter(|&b| b != axis) {
+        let inside = q[b].clamp(-half[b], half[b]);
+        err[b] += (q[b] - inside).abs();
+        q[b] = inside;
+    }
+    (q, err)
+}
+
+/// A cylinder's or cone's hit point `p` (error bound `rough`) on `face`, put on the cap or the
+/// side at its height.
+fn cylinder_surface(shape: (f32, f32, f32), p: Vec3, rough: Vec3, face: Face) -> (Vec3, Vec3) {
+    let (bottom_radius, top_radius, height) = shape;
+    let half = 0.5 * height;
+    let mut q = p;
+    let across = libm::sqrtf(p.x * p.x + p.z * p.z);
+    if face != 0 {
+        // On a cap: exactly on its plane, and (like a box's face) pulled back onto the
+        // disc if a ray that counts as inside the caps' slab or only touches the rim
+        // put it just beyond, the distance moved joining the error bound.
+        q.y = if face == 2 { half } else { -half };
+        let mut err = rough;
+        err.y = 0.0;
+        let r = if face == 2 { top_radius } else { bottom_radius };
+        if across > r {
             q.x = p.x * (r / across);
             q.z = p.z * (r / across);
-            let mut err = q.abs() * gamma(8);
-            err.y += moved;
-            (q, err)
+            err.x += (p.x - q.x).abs();
+            err.z += (p.z - q.z).abs();
         }
+        return (q, err);
     }
+    // On the side: between the caps (pulled back like a cap's point), moved across the
+    // axis onto the radius at its height.
+    q.y = p.y.clamp(-half, half);
+    let moved = (p.y - q.y).abs();
+    let k = (top_radius - bottom_radius) / height;
+    let r = (bottom_radius + k * (q.y + half)).max(0.0);
+    if across == 0.0 {
+        let mut err = rough;
+        err.y += moved;
+        return (q, err);
+    }
+    q.x = p.x * (r / across);
+    q.z = p.z * (r / across);
+    let mut err = q.abs() * gamma(8);
+    err.y += moved;
+    (q, err)
 }
 
 /// The object-space box around `shape` (infinite for a plane).
