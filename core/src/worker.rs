@@ -391,7 +391,12 @@ impl<L: Read + Write> Session<'_, &mut L> {
                         )?);
                     }
                     Err(RenderError::LineOutOfRange) => Refusal::LineOutOfRange,
-                    Err(_) => Refusal::BadMask,
+                    // The line buffers are sized from the scene, so only a mask can misfit.
+                    Err(RenderError::WrongBufferLength) => {
+                        debug_assert!(mask.is_some(), "line buffers sized from the scene");
+                        Refusal::BadMask
+                    }
+                    Err(RenderError::NotAdaptive) => Refusal::BadMask,
                 }
             }
             Some(Job {

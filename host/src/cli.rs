@@ -21,6 +21,7 @@ use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::scene::error::SceneError;
+use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 /// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
@@ -113,8 +114,8 @@ pub struct RenderArgs {
     #[arg(short = 'f', long, value_name = "DEG", value_parser = parse_fov)]
     pub field_of_view: Option<f32>,
 
-    /// Cap on reflection and refraction bounces.
-    #[arg(short = 'd', long, value_name = "N")]
+    /// Cap on reflection and refraction bounces (0 to 100).
+    #[arg(short = 'd', long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
     pub max_depth: Option<u32>,
 
     /// Ambient-occlusion level, 0 (off) to 9: level N traces N×N occlusion rays per shaded point.

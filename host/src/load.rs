@@ -10,6 +10,9 @@ use crate::datafile::read_data;
 use crate::error::LoadError;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::camera::Camera;
+use strahl_core::scene::settings::{
+    AA_THRESHOLD, AMBIENT_OCCLUSION, MAX_BOUNCES, MAX_DEPTH, SAMPLES,
+};
 use strahl_core::scene::{
     RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
@@ -244,7 +247,7 @@ pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String
         s.reflections = v;
     }
     if let Some(m) = o.samples {
-        if !(1..=MAX_SAMPLES).contains(&m) {
+        if !SAMPLES.contains(&m) {
             return Err(format!(
                 "the multisample given on the command line must be 1 to {MAX_SAMPLES}, found {m}"
             ));
@@ -252,10 +255,15 @@ pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String
         s.samples = m;
     }
     if let Some(d) = o.max_depth {
+        if !MAX_DEPTH.contains(&d) {
+            return Err(format!(
+                "the max depth given on the command line must be 0 to {MAX_BOUNCES}, found {d}"
+            ));
+        }
         s.max_depth = d;
     }
     if let Some(a) = o.ambient_occlusion {
-        if a > MAX_AMBIENT_OCCLUSION {
+        if !AMBIENT_OCCLUSION.contains(&a) {
             return Err(format!(
                 "the ambient occlusion given on the command line must be 0 to {MAX_AMBIENT_OCCLUSION}, found {a}"
             ));
@@ -263,12 +271,12 @@ pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String
         s.ambient_occlusion = a;
     }
     if let Some(t) = o.aa_threshold {
-        if !(0.0..=1.0).contains(&t) {
+        if !AA_THRESHOLD.contains(&t) {
             return Err(format!(
                 "the multisampling threshold given on the command line must be 0 to 1, found {t}"
             ));
         }
-        s.aa_threshold = t;
+        s.aa_threshold = Some(t);
     }
     if let Some(v) = o.skip_effects {
         s.skip_effects = v;

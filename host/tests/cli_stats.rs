@@ -198,6 +198,20 @@ fn aa_threshold_above_one_is_a_usage_error() -> TestResult {
 }
 
 #[test]
+fn a_depth_cap_above_the_limit_is_a_usage_error() -> TestResult {
+    // Two facing mirrors under a cap of 4e9 bounces would trace for ever; the cap is bounded.
+    let dir = tempfile::tempdir()?;
+    let out = render_room(dir.path(), &["-o", "x.bmp", "-d", "4000000000"])?;
+    assert_eq!(out.status.code(), Some(2), "stderr:\n{}", stderr(&out));
+    assert!(stderr(&out).contains("--max-depth"), "{}", stderr(&out));
+    assert!(stderr(&out).contains("0..=100"), "{}", stderr(&out));
+    assert!(!dir.path().join("x.bmp").exists(), "nothing rendered");
+    let out = render_room(dir.path(), &["-o", "x.bmp", "-d", "100"])?;
+    assert_success(&out);
+    Ok(())
+}
+
+#[test]
 fn unwritable_stats_path_fails_naming_it() -> TestResult {
     let dir = tempfile::tempdir()?;
     let missing = dir.path().join("no-such-folder").join("stats.json");

@@ -580,7 +580,7 @@ fn rich_scene() -> SceneDesc {
             background: Vec3::new(0.05, 0.05, 0.1),
             samples: 2,
             ambient_occlusion: 2,
-            aa_threshold: 0.05,
+            aa_threshold: Some(0.05),
             max_depth: 6,
             skip_effects: true,
             ..RenderSettings::default()
@@ -678,7 +678,7 @@ fn rich_scene_skipping_changes_no_pixel() {
     );
     // The same without adaptive multisampling: then the samples do not change.
     let mut full = desc.clone();
-    full.settings.aa_threshold = -1.0;
+    full.settings.aa_threshold = None;
     assert_skipping_is_invisible(
         "rich scene, full multisampling",
         &full,
@@ -696,12 +696,12 @@ const AH: u32 = 24;
 
 /// A white box (ambient 1, no diffuse or specular) on a black background: its front face at
 /// `y = 10` covers `x ∈ [−3, 3]`, `z ∈ [−2, 2]`, whose edges lie between pixel centres.
-fn white_box(samples: u32, aa_threshold: f32) -> SceneDesc {
+fn white_box(samples: u32, aa_threshold: Option<f32>) -> SceneDesc {
     white_cuboid(Vec3::new(6.0, 1.0, 4.0), samples, aa_threshold)
 }
 
 /// [`white_box`] with a box of `size`.
-fn white_cuboid(size: Vec3, samples: u32, aa_threshold: f32) -> SceneDesc {
+fn white_cuboid(size: Vec3, samples: u32, aa_threshold: Option<f32>) -> SceneDesc {
     let white = Shader {
         ambient: Vec3::ONE,
         ..shader(0.0, 0.0, 0.0)
@@ -721,7 +721,7 @@ fn white_cuboid(size: Vec3, samples: u32, aa_threshold: f32) -> SceneDesc {
 }
 
 /// A diffuse wall lit from close by: a smooth gradient where almost every neighbour differs.
-fn gradient(samples: u32, aa_threshold: f32) -> SceneDesc {
+fn gradient(samples: u32, aa_threshold: Option<f32>) -> SceneDesc {
     let mut desc = wall_scene(
         shader(0.0, 1.0, 0.0),
         vec![light(Vec3::new(2.0, 8.0, 1.0), true)],
@@ -757,9 +757,9 @@ fn adaptive_extra(m: u32, supersampled: u64) -> u64 {
 #[test]
 fn adaptive_multisampling_supersamples_only_the_edge() {
     let m = 4u32;
-    let (single, c1) = render(&white_box(1, -1.0));
-    let (full, cf) = render(&white_box(m, -1.0));
-    let (adaptive, ca) = render(&white_box(m, 0.05));
+    let (single, c1) = render(&white_box(1, None));
+    let (full, cf) = render(&white_box(m, None));
+    let (adaptive, ca) = render(&white_box(m, Some(0.05)));
     let pixels = u64::from(AW * AH);
     let black = Pixel::from_color(Vec3::ZERO);
     let white = Pixel::from_color(Vec3::ONE);
@@ -809,7 +809,7 @@ fn adaptive_multisampling_supersamples_only_the_edge() {
     // non-casting light, mirror and refraction rays), and the image stays the same.
     let (c_on, c_off) = assert_skipping_is_invisible(
         "white box, adaptive",
-        &white_box(m, 0.05),
+        &white_box(m, Some(0.05)),
         &["extra_samples", "shadow", "reflection", "refraction"],
     );
     assert_eq!(c_on, ca);
@@ -820,17 +820,17 @@ fn adaptive_multisampling_supersamples_only_the_edge() {
 fn aa_threshold_zero_supersamples_every_pixel_with_a_differing_neighbour() {
     let m = 2u32;
     // Hard edge: exactly the pixels with a differing neighbour.
-    let (single, _) = render(&white_box(1, -1.0));
-    let (_, c0) = render(&white_box(m, 0.0));
+    let (single, _) = render(&white_box(1, None));
+    let (_, c0) = render(&white_box(m, Some(0.0)));
     let edge = differs_from_a_neighbour(&single, AW, AH);
     let n_edge = edge.iter().filter(|&&e| e).count() as u64;
     assert_eq!(c0.extra_samples, adaptive_extra(m, n_edge), "{c0:?}");
 
     // Gradient: every pixel whose single-sample value differs from a neighbour's is supersampled
     // (its pixel equals the full-multisampling one), m² extra rays each and no others.
-    let (single, _) = render(&gradient(1, -1.0));
-    let (full, _) = render(&gradient(m, -1.0));
-    let (adaptive, c) = render(&gradient(m, 0.0));
+    let (single, _) = render(&gradient(1, None));
+    let (full, _) = render(&gradient(m, None));
+    let (adaptive, c) = render(&gradient(m, Some(0.0)));
     let edge = differs_from_a_neighbour(&single, AW, AH);
     let n_edge = edge.iter().filter(|&&e| e).count();
     assert!(
@@ -866,11 +866,11 @@ fn adaptive_multisampling_traces_nothing_extra_in_a_flat_image() {
         d
     };
     for (name, scene) in [
-        ("face", &close_up as &dyn Fn(u32, f32) -> SceneDesc),
+        ("face", &close_up as &dyn Fn(u32, Option<f32>) -> SceneDesc),
         ("background", &empty_view),
     ] {
-        let (single, c1) = render(&scene(1, -1.0));
-        let (adaptive, ca) = render(&scene(m, 0.0));
+        let (single, c1) = render(&scene(1, None));
+        let (adaptive, ca) = render(&scene(m, Some(0.0)));
         assert!(single.iter().all(|&p| p == single[0]), "{name}: flat");
         assert_eq!(adaptive, single, "{name}");
         assert_eq!(ca.primary, u64::from(AW * AH), "{name}");
@@ -894,7 +894,14 @@ fn render_in_order(desc: &SceneDesc, ys: &[u32]) -> (Vec<Pixel>, RayCounts) {
     let mut image = centres.clone();
     for &y in ys {
         let mut mask = vec![0u8; mask_len(s.width)];
-        if edge_mask(s.aa_threshold, &centres, s.width, y, &mut mask) > 0 {
+        if edge_mask(
+            s.aa_threshold.expect("an adaptive scene"),
+            &centres,
+            s.width,
+            y,
+            &mut mask,
+        ) > 0
+        {
             let mut refined = vec![Pixel::default(); w];
             counts += refine_line(&scene, y, &mask, &mut refined).expect("line refines");
             merge_refined(
@@ -909,7 +916,7 @@ fn render_in_order(desc: &SceneDesc, ys: &[u32]) -> (Vec<Pixel>, RayCounts) {
 
 #[test]
 fn adaptive_multisampling_is_independent_of_line_order() {
-    for desc in [white_box(4, 0.05), rich_scene()] {
+    for desc in [white_box(4, Some(0.05)), rich_scene()] {
         let h = desc.settings.height;
         let (image, counts) = render(&desc);
         let reverse: Vec<u32> = (0..h).rev().collect();

@@ -248,7 +248,7 @@ fn multisampled_occluded_render_is_identical_for_any_worker_count() {
     // Adaptive multisampling looks at the neighbouring lines' centre samples: still the same
     // image whichever worker renders which line, and some pixels (not all) supersampled.
     let mut adaptive = d.clone();
-    adaptive.settings.aa_threshold = 0.05;
+    adaptive.settings.aa_threshold = Some(0.05);
     let (_, a_rays) = assert_same_for_any_worker_count("adaptive m = 3, AO 2", &adaptive);
     let pixels = u64::from(d.settings.width * d.settings.height);
     assert!(
@@ -359,7 +359,7 @@ fn corner(spot: Vec3, ambient_occlusion: u32) -> SceneDesc {
         },
     );
     d.settings.ambient_occlusion = ambient_occlusion;
-    d.settings.ao_distance = 1.0;
+    d.settings.ao_distance = Some(1.0);
     d
 }
 

@@ -613,7 +613,7 @@ fn refine_requests_supersample_the_flagged_pixels() {
     // the flagged pixels' samples (the others black), exactly as `refine_line` computes them.
     let mut desc = room_desc();
     desc.settings.samples = 2;
-    desc.settings.aa_threshold = 0.05;
+    desc.settings.aa_threshold = Some(0.05);
     let f = fixture(desc);
     let w = WIDTH as usize;
     let mut mask = vec![0u8; mask_len(WIDTH)];

@@ -26,15 +26,15 @@ pub fn render_image(scene: &Scene, pixels: &mut [Pixel]) -> Result<RayCounts, Re
     for (y, line) in pixels.chunks_mut(w).enumerate() {
         counts += render_line(scene, y as u32, line)?;
     }
-    if !is_adaptive(s) {
+    let Some(threshold) = s.aa_threshold.filter(|_| is_adaptive(s)) else {
         return Ok(counts);
-    }
+    };
     let centres = pixels.to_vec();
     let mut edges = vec![0u8; mask_len(s.width)];
     let all = vec![0xffu8; mask_len(s.width)];
     let mut refined = vec![Pixel::default(); w];
     for (y, line) in pixels.chunks_mut(w).enumerate() {
-        let flagged = edge_mask(s.aa_threshold, &centres, s.width, y as u32, &mut edges);
+        let flagged = edge_mask(threshold, &centres, s.width, y as u32, &mut edges);
         // Without skipping, every pixel is supersampled and only the flagged ones are kept.
         let request = if s.skip_effects { &edges } else { &all };
         if flagged > 0 || !s.skip_effects {

@@ -13,7 +13,7 @@ use alloc::vec::Vec;
 /// Whether `settings` ask for adaptive multisampling (so lines take two passes).
 #[inline]
 pub fn is_adaptive(settings: &RenderSettings) -> bool {
-    settings.samples > 1 && settings.aa_threshold >= 0.0
+    settings.samples > 1 && settings.aa_threshold.is_some()
 }
 
 /// Whether a mirror ray carrying `share` of the colour of a path of weight `weight` at bounce
@@ -162,7 +162,7 @@ mod tests {
         };
         let rich = RenderSettings {
             samples: 3,
-            aa_threshold: 0.1,
+            aa_threshold: Some(0.1),
             ambient_occlusion: 2,
             shadows: false,
             ..s

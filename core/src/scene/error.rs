@@ -59,8 +59,8 @@ pub enum SceneError {
     /// The camera looks nowhere: zero view direction, up parallel to it, or a field of view
     /// outside (0°, 180°).
     BadCamera,
-    /// A setting is out of range: samples per side 1 to [`crate::scene::MAX_SAMPLES`], ambient
-    /// occlusion 0 to [`crate::scene::MAX_AMBIENT_OCCLUSION`], occlusion distance at least 0.
+    /// A setting is out of its range in [`crate::scene::settings`]: samples per side, ambient
+    /// occlusion, bounce cap, adaptive threshold, or an occlusion distance that is not above 0.
     BadSettings,
     /// Shader `shader` has a reflection or transparency outside `[0, 1]`, a sum of both above 1,
     /// or an index of refraction that is not positive.
@@ -122,9 +122,10 @@ impl fmt::Display for SceneError {
             ),
             SceneError::BadSettings => write!(
                 f,
-                "samples per side must be 1 to {}, ambient occlusion 0 to {}, occlusion distance at least 0",
+                "samples per side must be 1 to {}, ambient occlusion 0 to {}, the bounce cap 0 to {}, the adaptive threshold 0 to 1, occlusion distance above 0",
                 crate::scene::MAX_SAMPLES,
-                crate::scene::MAX_AMBIENT_OCCLUSION
+                crate::scene::MAX_AMBIENT_OCCLUSION,
+                crate::scene::settings::MAX_BOUNCES
             ),
             SceneError::BadShader { shader } => write!(
                 f,

@@ -143,8 +143,8 @@ fn smooth_normals(desc: &SceneDesc, triangle_points: &[[Vec3; 3]]) -> (Vec<[Vec3
 /// How far occlusion rays look: the settings' distance, or a tenth of the scene's bounding-box
 /// diagonal (1 for an empty or unbounded scene).
 fn occlusion_distance(settings: &RenderSettings, bounds: &Aabb) -> f32 {
-    if settings.ao_distance > 0.0 {
-        return settings.ao_distance;
+    if let Some(distance) = settings.ao_distance {
+        return distance;
     }
     let diagonal = (bounds.max - bounds.min).length();
     if diagonal > 0.0 && diagonal.is_finite() {

@@ -4,7 +4,6 @@
 use super::camera::Camera;
 use super::error::SceneError;
 use super::model::{SceneDesc, MAX_IMAGE_SIDE};
-use super::settings::{MAX_AMBIENT_OCCLUSION, MAX_SAMPLES};
 use crate::geom::solid::{SolidNode, MAX_CSG_DEPTH};
 use alloc::vec::Vec;
 use glam::Vec3;
@@ -47,11 +46,7 @@ impl SceneDesc {
                 Camera::LookAt(_) => SceneError::BadCamera,
             });
         }
-        if s.samples == 0
-            || s.samples > MAX_SAMPLES
-            || s.ambient_occlusion > MAX_AMBIENT_OCCLUSION
-            || s.ao_distance < 0.0
-        {
+        if !s.knobs_in_range() {
             return Err(SceneError::BadSettings);
         }
         self.validate_shaders()?;
@@ -83,8 +78,8 @@ impl SceneDesc {
                 .all(|l| finite(l.position) && finite(l.color) && l.amount.is_finite())
             && finite(s.background)
             && s.min_reflection_weight.is_finite()
-            && s.ao_distance.is_finite()
-            && s.aa_threshold.is_finite()
+            && s.ao_distance.is_none_or(f32::is_finite)
+            && s.aa_threshold.is_none_or(f32::is_finite)
     }
 
     /// Checks each shader's shares: reflection and transparency in `[0, 1]` with a sum of at

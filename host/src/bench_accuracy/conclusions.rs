@@ -699,7 +699,7 @@ pub(super) fn knob_value(r: &Row, sc: &SceneRun) -> f64 {
     let s = &sc.measured[r.measured].config.settings;
     match r.knob {
         Knob::Multisample => f64::from(s.samples),
-        Knob::Adaptive => f64::from(s.aa_threshold),
+        Knob::Adaptive => s.aa_threshold.map_or(-1.0, f64::from),
         Knob::Cutoff => f64::from(s.min_reflection_weight),
         Knob::Depth => f64::from(s.max_depth),
         Knob::Occlusion => f64::from(s.ambient_occlusion),

@@ -411,7 +411,7 @@ fn plan(
     for m in pick(&[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 4]) {
         let s = RenderSettings {
             samples: m,
-            aa_threshold: -1.0,
+            aa_threshold: None,
             ..*baseline
         };
         rows.push((
@@ -431,7 +431,7 @@ fn plan(
     for &t in thresholds {
         let s = RenderSettings {
             samples: 4,
-            aa_threshold: t,
+            aa_threshold: Some(t),
             ..*baseline
         };
         rows.push((
@@ -693,7 +693,7 @@ fn run_scene(
     };
     let main_ref = RenderSettings {
         samples: REFERENCE_SAMPLES,
-        aa_threshold: -1.0,
+        aa_threshold: None,
         min_reflection_weight: 0.0,
         max_depth: REFERENCE_DEPTH,
         ..baseline

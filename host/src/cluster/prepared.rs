@@ -62,10 +62,15 @@ impl PreparedScene {
             blob: Arc::clone(&self.blob),
             width: self.scene.settings.width,
             height: self.scene.settings.height,
-            adaptive: is_adaptive(&self.scene.settings).then_some(AdaptiveJob {
-                threshold: self.scene.settings.aa_threshold,
-                refine_all: !self.scene.settings.skip_effects,
-            }),
+            adaptive: self
+                .scene
+                .settings
+                .aa_threshold
+                .filter(|_| is_adaptive(&self.scene.settings))
+                .map(|threshold| AdaptiveJob {
+                    threshold,
+                    refine_all: !self.scene.settings.skip_effects,
+                }),
         }
     }
 }

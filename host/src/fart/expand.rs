@@ -34,7 +34,8 @@ use strahl_core::geom::solid::{CsgOp, Shape, SolidNode, MAX_CSG_DEPTH};
 use strahl_core::math::transform::Transform;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{
-    Light, RenderSettings, SceneDesc, Shader, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
+    settings::MAX_BOUNCES, Light, RenderSettings, SceneDesc, Shader, MAX_AMBIENT_OCCLUSION,
+    MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
 
 /// The most analytic shapes a scene may expand to.
@@ -48,9 +49,6 @@ pub const MAX_ITERATIONS: u64 = 10_000_000;
 
 /// The most mesh triangles a scene may place (meshes used several times count each time).
 pub const MAX_TRIANGLES: u64 = 20_000_000;
-
-/// The highest `max_depth` option.
-pub const MAX_BOUNCES: u32 = 100;
 
 /// The material written as `material { }` (FART's defaults).
 pub const DEFAULT_MATERIAL: Shader = Shader {
