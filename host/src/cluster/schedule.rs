@@ -117,6 +117,24 @@ impl LineScheduler {
         true
     }
 
+    /// The window policy, for the master and the model alike: the lines to hand a worker that
+    /// has `outstanding` requests and room for `window` (at least 1). Waiting lines fill its
+    /// window; a worker with nothing outstanding when nothing waits gets a copy of a line in
+    /// flight ([`LineScheduler::next_copy`]; it holds no line, so any copy is one it lacks).
+    pub fn fill_window(&mut self, outstanding: usize, window: u32) -> Vec<u32> {
+        let mut lines = Vec::new();
+        while outstanding + lines.len() < window.max(1) as usize {
+            let Some(line) = self.next_waiting() else {
+                break;
+            };
+            lines.push(line);
+        }
+        if outstanding == 0 && lines.is_empty() {
+            lines.extend(self.next_copy(|_| false));
+        }
+        lines
+    }
+
     /// A holder gives `line` up without a result. Returns `true` if the line went back to the
     /// queue (no other holder, not finished).
     pub fn release(&mut self, line: u32) -> bool {
@@ -183,6 +201,17 @@ mod tests {
         );
         assert!(s.complete(3, true));
         assert!(s.is_complete());
+    }
+
+    #[test]
+    fn a_window_fills_with_waiting_lines_then_a_copy() {
+        let mut s = LineScheduler::new(3);
+        assert_eq!(s.fill_window(0, 2), [0, 1]);
+        assert_eq!(s.fill_window(2, 2), [], "a full window gets nothing");
+        assert_eq!(s.fill_window(0, 0), [2], "a window of 0 counts as 1");
+        // Nothing waits: only a worker with nothing outstanding gets a copy.
+        assert_eq!(s.fill_window(1, 2), []);
+        assert_eq!(s.fill_window(0, 2), [0]);
     }
 
     #[test]
