@@ -207,10 +207,10 @@ mod tests {
     fn a_window_fills_with_waiting_lines_then_a_copy() {
         let mut s = LineScheduler::new(3);
         assert_eq!(s.fill_window(0, 2), [0, 1]);
-        assert_eq!(s.fill_window(2, 2), [], "a full window gets nothing");
+        assert_eq!(s.fill_window(2, 2), [0u32; 0], "a full window gets nothing");
         assert_eq!(s.fill_window(0, 0), [2], "a window of 0 counts as 1");
         // Nothing waits: only a worker with nothing outstanding gets a copy.
-        assert_eq!(s.fill_window(1, 2), []);
+        assert_eq!(s.fill_window(1, 2), [0u32; 0]);
         assert_eq!(s.fill_window(0, 2), [0]);
     }
 
