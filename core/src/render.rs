@@ -8,7 +8,7 @@
 //! supersamples the pixels that differ from a neighbour. Every decision depends on the scene and
 //! the pixel alone, so any executor on any machine produces the same pixels.
 
-use crate::adaptive::{edge_mask, is_adaptive, mask_len, merge_refined, refine_line};
+use crate::adaptive::{is_adaptive, mask_len, merge_refined, refine_line, SecondPass};
 use crate::error::RenderError;
 use crate::pixel::Pixel;
 use crate::ray::Ray;
@@ -113,17 +113,23 @@ pub fn render_image(scene: &Scene, pixels: &mut [Pixel]) -> Result<RayCounts, Re
     if !is_adaptive(s) {
         return Ok(counts);
     }
-    let centres = pixels.to_vec();
-    let mut edges = vec![0u8; mask_len(s.width)];
+    let mut pass = SecondPass::new(s.aa_threshold, s.width, s.height);
+    for (y, line) in pixels.chunks(w).enumerate() {
+        pass.add_centres(y as u32, line);
+    }
     let all = vec![0xffu8; mask_len(s.width)];
     let mut refined = vec![Pixel::default(); w];
     for (y, line) in pixels.chunks_mut(w).enumerate() {
-        let flagged = edge_mask(s.aa_threshold, &centres, s.width, y as u32, &mut edges);
+        // Every line's centres are in, so every line is decided.
+        let Some((edges, flagged)) = pass.decision(y as u32) else {
+            debug_assert!(false, "line {y} undecided with every line's centres in");
+            continue;
+        };
         // Without skipping, every pixel is supersampled and only the flagged ones are kept.
-        let request = if s.skip_effects { &edges } else { &all };
+        let request = if s.skip_effects { edges } else { &all };
         if flagged > 0 || !s.skip_effects {
             counts += refine_line(scene, y as u32, request, &mut refined)?;
-            merge_refined(&edges, &refined, line);
+            merge_refined(edges, &refined, line);
         }
     }
     Ok(counts)
