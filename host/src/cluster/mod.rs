@@ -22,7 +22,9 @@ pub const POLL_INTERVAL: Duration = Duration::from_millis(20);
 /// How long the master tries to reach a TCP worker it dials before going on without it.
 pub const DIAL_TIMEOUT: Duration = Duration::from_secs(5);
 
+pub(crate) mod assembly;
 pub mod link;
+pub(crate) mod link_threads;
 pub mod local;
 pub mod master;
 pub mod model;
@@ -30,4 +32,5 @@ pub mod pipe;
 pub mod prepared;
 pub mod report;
 pub mod schedule;
+pub(crate) mod session;
 pub mod sim;

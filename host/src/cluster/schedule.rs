@@ -7,11 +7,51 @@
 //! A line given up by its last holder (worker lost, request lost) goes back to the front of the
 //! queue. The simulated cluster's discrete-event model drives this same type.
 //!
-//! The master schedules tasks: with adaptive multisampling each line has two, its first pass
-//! (task `y`) and its second (task `height + y`), which is queued only once the first passes of
-//! the line and its neighbours are in (or finished at once when no pixel needs it).
+//! The master schedules [`Task`]s: with adaptive multisampling each line has two, its first
+//! pass and its second, which is queued only once the first passes of the line and its
+//! neighbours are in (or finished at once when no pixel needs it). The scheduler numbers them
+//! ([`Task::index`]).
 
 use std::collections::VecDeque;
+
+/// What a worker is asked to do for one line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Task {
+    /// The line's (first) pass: `RenderLine`, answered by a `LineResult` not marked refined.
+    Line(u32),
+    /// Adaptive multisampling's second pass of the line: `RefineLine`, answered by a
+    /// `LineResult` marked refined.
+    Refine(u32),
+}
+
+impl Task {
+    /// The task a `LineResult` for `line` answers, `refined` or not.
+    pub fn from_wire(line: u32, refined: bool) -> Task {
+        if refined {
+            Task::Refine(line)
+        } else {
+            Task::Line(line)
+        }
+    }
+
+    /// The task's number in the [`LineScheduler`] of an image `height` lines high: first passes
+    /// are `0..height`, second passes `height..2 × height`. This and [`Task::from_index`] are
+    /// the one place that numbering is written.
+    pub fn index(self, height: u32) -> u32 {
+        match self {
+            Task::Line(y) => y,
+            Task::Refine(y) => height + y,
+        }
+    }
+
+    /// The task numbered `index` in an image `height` lines high ([`Task::index`]).
+    pub fn from_index(index: u32, height: u32) -> Task {
+        match index.checked_sub(height) {
+            Some(y) => Task::Refine(y),
+            None => Task::Line(index),
+        }
+    }
+}
 
 /// The state of every line of one image.
 #[derive(Clone, Debug)]
