@@ -658,3 +658,207 @@ pub fn refusal_text(reason: Refusal) -> String {
         Refusal::BadMask => "a refine request did not fit the scene".to_string(),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cluster::master::AdaptiveJob;
+    use std::sync::Mutex;
+    use strahl_core::protocol::scene_blob::{digest, SceneBlob};
+
+    /// A wire that writes down what the session sends and cuts.
+    #[derive(Default)]
+    struct Recorder {
+        sent: Vec<(usize, String)>,
+        cut: Vec<usize>,
+    }
+
+    impl Recorder {
+        /// What was sent since the last call.
+        fn take(&mut self) -> Vec<(usize, String)> {
+            std::mem::take(&mut self.sent)
+        }
+    }
+
+    impl Wire for Recorder {
+        fn send(&mut self, id: usize, msg: &MasterMessage<'_>) {
+            let text = match msg {
+                MasterMessage::Hello(_) => "Hello".to_string(),
+                MasterMessage::Job { .. } => "Job".to_string(),
+                MasterMessage::SceneChunk { offset, .. } => format!("SceneChunk {offset}"),
+                MasterMessage::RenderLine { line, .. } => format!("RenderLine {line}"),
+                MasterMessage::RefineLine { line, mask, .. } => {
+                    format!("RefineLine {line} {mask:?}")
+                }
+                MasterMessage::Fence { seq } => format!("Fence {seq}"),
+                MasterMessage::EndSession => "EndSession".to_string(),
+            };
+            self.sent.push((id, text));
+        }
+
+        fn queued(&self, _: usize) -> usize {
+            0
+        }
+
+        fn last_chunk_write(&self, _: usize) -> Instant {
+            Instant::now()
+        }
+
+        fn cut(&mut self, id: usize) {
+            self.cut.push(id);
+        }
+    }
+
+    fn job(width: u32, height: u32, adaptive: Option<AdaptiveJob>) -> ClusterJob {
+        let bytes = vec![7u8; 100];
+        ClusterJob {
+            id: 3,
+            blob: Arc::new(SceneBlob {
+                digest: digest(&bytes),
+                bytes,
+            }),
+            width,
+            height,
+            adaptive,
+        }
+    }
+
+    fn line(job: &ClusterJob, y: u32, refined: bool, value: u16) -> Event {
+        Event::Message(
+            0,
+            Incoming::Line {
+                job: job.id,
+                line: y,
+                refined,
+                rays: RayCounts {
+                    primary: 1,
+                    ..RayCounts::default()
+                },
+                pixels: vec![Pixel([value; 3]); job.width as usize],
+            },
+        )
+    }
+
+    /// Greets worker 0, loads it and makes it ready.
+    fn ready_worker(s: &mut Session<'_>, job: &ClusterJob, wire: &mut Recorder) {
+        s.add("w0", LinkKind::InProcess, true, wire);
+        let hello = Incoming::Hello {
+            version: PROTOCOL_VERSION,
+            name: "zero".to_string(),
+            arch: "test".to_string(),
+        };
+        s.handle(Event::Message(0, hello), wire);
+        let need = Incoming::NeedScene {
+            job: job.id,
+            offset: 0,
+            restart: false,
+        };
+        s.handle(Event::Message(0, need), wire);
+        s.handle(Event::Message(0, Incoming::Ready { job: job.id }), wire);
+    }
+
+    #[test]
+    fn a_worker_is_loaded_given_a_window_and_its_lost_requests_reissued() {
+        let job = job(2, 3, None);
+        let opts = MasterOptions::default();
+        let done = Mutex::new(Vec::new());
+        let on_line = |y, _| done.lock().expect("not poisoned").push(y);
+        let mut s = Session::new(&job, &opts, &on_line, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        let sent: Vec<String> = wire.take().into_iter().map(|(_, m)| m).collect();
+        assert_eq!(sent, ["Hello", "Job", "SceneChunk 0"]);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(
+            wire.take(),
+            [(0, "RenderLine 0".into()), (0, "RenderLine 1".into())]
+        );
+        // The answer to line 1 says the request for line 0 was lost: it is issued again.
+        s.handle(line(&job, 1, false, 5), &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(
+            wire.take(),
+            [(0, "RenderLine 0".into()), (0, "RenderLine 2".into())]
+        );
+        s.handle(line(&job, 0, false, 5), &mut wire);
+        s.handle(line(&job, 2, false, 5), &mut wire);
+        // A second answer for a line is counted, not used.
+        s.handle(line(&job, 2, false, 9), &mut wire);
+        assert!(s.is_complete());
+        assert_eq!(*done.lock().expect("not poisoned"), [1, 0, 2]);
+        let image = s.into_image().expect("complete");
+        let w = &image.workers[0];
+        assert_eq!((w.name.as_str(), w.lines, w.reissued), ("zero", 3, 1));
+        assert_eq!(w.frames_dropped, 1, "the unasked-for copy of line 2");
+        assert!(image.pixels.iter().all(|p| *p == Pixel([5; 3])));
+    }
+
+    #[test]
+    fn a_second_pass_is_asked_for_once_the_neighbours_are_in() {
+        let adaptive = AdaptiveJob {
+            threshold: 0.1,
+            refine_all: false,
+        };
+        let job = job(2, 3, Some(adaptive));
+        let opts = MasterOptions {
+            window: 3,
+            ..MasterOptions::default()
+        };
+        let done = Mutex::new(Vec::new());
+        let on_line = |y, _| done.lock().expect("not poisoned").push(y);
+        let mut s = Session::new(&job, &opts, &on_line, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        wire.take();
+        // Lines 0 and 1 are alike, line 2 differs: lines 1 and 2 need a second pass.
+        s.handle(line(&job, 0, false, 0), &mut wire);
+        s.handle(line(&job, 1, false, 0), &mut wire);
+        // Line 0 (the top) is decided by line 1 and needs no second pass; line 1 waits for 2.
+        assert_eq!(*done.lock().expect("not poisoned"), [0]);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(wire.take(), []);
+        s.handle(line(&job, 2, false, 60000), &mut wire);
+        assert_eq!(*done.lock().expect("not poisoned"), [0]);
+        s.fill_windows(Instant::now(), &mut wire);
+        let sent: Vec<String> = wire.take().into_iter().map(|(_, m)| m).collect();
+        assert_eq!(sent, ["RefineLine 1 [3]", "RefineLine 2 [3]"]);
+        s.handle(line(&job, 1, true, 7), &mut wire);
+        s.handle(line(&job, 2, true, 7), &mut wire);
+        assert!(s.is_complete());
+        assert_eq!(*done.lock().expect("not poisoned"), [0, 1, 2]);
+        let pixels = s.into_image().expect("complete").pixels;
+        assert_eq!(pixels[0], Pixel([0; 3]));
+        assert!(pixels[2..].iter().all(|p| *p == Pixel([7; 3])));
+    }
+
+    #[test]
+    fn a_refusal_drops_the_worker_and_cuts_its_link() {
+        let job = job(2, 1, None);
+        let opts = MasterOptions::default();
+        let log = Mutex::new(Vec::new());
+        let log_fn = |m: &str| log.lock().expect("not poisoned").push(m.to_string());
+        let mut s = Session::new(&job, &opts, &|_, _| {}, &log_fn);
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        let refused = Incoming::Refused {
+            job: job.id,
+            reason: Refusal::CorruptScene,
+        };
+        s.handle(Event::Message(0, refused), &mut wire);
+        assert_eq!(wire.cut, [0]);
+        assert!(!s.any_alive());
+        assert_eq!(
+            *log.lock().expect("not poisoned"),
+            [
+                "worker zero (w0) lost: it refused the job: the scene arrived corrupted; 1 line \
+              re-queued"
+            ]
+        );
+        assert!(matches!(
+            s.into_image(),
+            Err(ClusterError::AllWorkersLost { finished: 0, .. })
+        ));
+    }
+}
