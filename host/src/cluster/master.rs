@@ -1,9 +1,9 @@
 //! The master: hands out lines to workers over their links, collects the results, survives
 //! workers that die, hang or garble frames.
 //!
-//! [`run_master`] ties the parts together: the [`link threads`](crate::cluster::link_threads)
-//! turn each worker's frames into events, the [`session`](crate::cluster::session) (no I/O)
-//! decides what to send and which results count, and the [`assembly`](crate::cluster::assembly)
+//! [`run_master`] ties the parts together: the link threads (`link_threads`)
+//! turn each worker's frames into events, the session (`session`) (no I/O)
+//! decides what to send and which results count, and the assembly (`assembly`)
 //! builds the image. At the end the master says `EndSession` to every worker left and waits a
 //! moment ([`END_SESSION_GRACE`]) for the links to close.
 
