@@ -37,7 +37,9 @@ pub(crate) trait Wire {
     fn cut(&mut self, id: usize);
 }
 
-/// A worker's message, decoded and checked in its reader thread, owning its data.
+/// A worker's message, decoded and checked in its reader thread, owning its data. It mirrors
+/// [`strahl_core::protocol::message::WorkerMessage`] field for field (which borrows the frame,
+/// so cannot cross the channel), keeping only what the session reads.
 #[derive(Debug)]
 pub(crate) enum Incoming {
     Hello {
@@ -89,6 +91,17 @@ enum State {
     Working,
     /// Dropped; see the report.
     Gone,
+}
+
+/// What a silent worker is sent to see whether it is still there.
+#[derive(Clone, Copy, Debug)]
+enum Probe {
+    /// `Hello` again (it has not greeted).
+    Hello,
+    /// `Job` again (it is loading the scene).
+    Job,
+    /// A `Fence` (it is working).
+    Fence,
 }
 
 /// One outstanding request.
@@ -531,14 +544,14 @@ impl<'a> Session<'a> {
     pub(crate) fn check_timeouts(&mut self, now: Instant, wire: &mut dyn Wire) {
         for id in 0..self.peers.len() {
             let peer = &self.peers[id];
-            let waiting_on_it = match peer.state {
+            // Only a worker the master waits on is timed out, and probed with what it last got.
+            let probe = match peer.state {
                 State::Gone => continue,
-                State::Working => !peer.requests.is_empty(),
-                State::Greeting | State::Loading => true,
+                State::Working if peer.requests.is_empty() => continue,
+                State::Working => Probe::Fence,
+                State::Greeting => Probe::Hello,
+                State::Loading => Probe::Job,
             };
-            if !waiting_on_it {
-                continue;
-            }
             // While scene chunks are still going out, the worker cannot answer yet: the time
             // counts from the last chunk written (probes do not count).
             let since = match peer.state {
@@ -557,11 +570,10 @@ impl<'a> Session<'a> {
                 continue;
             }
             self.peers[id].last_probe = now;
-            match self.peers[id].state {
-                State::Greeting => self.send_hello(id, wire),
-                State::Loading => self.send_job(id, wire),
-                State::Working => self.send_fence(id, now, wire),
-                State::Gone => {}
+            match probe {
+                Probe::Hello => self.send_hello(id, wire),
+                Probe::Job => self.send_job(id, wire),
+                Probe::Fence => self.send_fence(id, now, wire),
             }
         }
     }
