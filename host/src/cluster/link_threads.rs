@@ -17,7 +17,9 @@ use strahl_core::protocol::frame::{FrameReader, FrameWriter, LinkError, ReadEven
 use strahl_core::protocol::message::{decode_pixels, Hello, MasterMessage, WorkerMessage};
 use strahl_core::protocol::{frame_len, MAX_HEADER_LEN, PIXEL_WIRE_BYTES};
 
-/// Turns a decoded message into an [`Incoming`]; `None` if its pixels are not one line.
+/// Turns a decoded message into an [`Incoming`]; `None` if its pixels are not one line. (The
+/// field-by-field copy is the price of owning the data; `tests/tests/protocol_worker.rs` has a
+/// similar one for its own owned type.)
 fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
     Some(match msg {
         WorkerMessage::Hello(Hello {
