@@ -11,7 +11,7 @@ use crate::cluster::report::WorkerTable;
 use crate::executor::{start_workers, ClusterArgs};
 use crate::load::{load_scene, Overrides};
 use crate::output::{check_output_path, write_atomically, write_image};
-use crate::progress::Progress;
+use crate::progress::{format_ray_rate, Progress};
 use crate::summary::{RenderStats, RenderSummary};
 use anyhow::anyhow;
 use clap::{Args, Parser, Subcommand};
@@ -408,7 +408,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     if !args.quiet {
         eprintln!("{summary}");
         eprintln!("effects: {}", scene.effects.describe());
-        eprint!("{}", WorkerTable(&image.workers));
+        eprint!("{}", WorkerTable(&image.workers, format_ray_rate));
     }
     Ok(())
 }

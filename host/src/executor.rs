@@ -8,6 +8,7 @@
 use crate::cluster::link::Link;
 use crate::cluster::local::spawn_local_workers;
 use crate::cluster::prepared::PreparedScene;
+use crate::cluster::{DIAL_TIMEOUT, POLL_INTERVAL};
 use crate::hosts::{read_hosts_file, HostEntry};
 use anyhow::{anyhow, bail, Context as _};
 use clap::Args;
@@ -86,16 +87,27 @@ pub struct LaunchedWorker {
     child: Child,
 }
 
+/// How often a dropped [`LaunchedWorker`] looks whether its command has exited.
+const LAUNCHED_EXIT_POLL: Duration = Duration::from_millis(25);
+
+/// How many times it looks ([`LAUNCHED_EXIT_POLL`] apart, half a second in all) before it stops
+/// the command.
+const LAUNCHED_EXIT_POLLS: u32 = 20;
+
 impl Drop for LaunchedWorker {
     fn drop(&mut self) {
         // A worker that served its session has exited by now; give it a moment, then stop the
         // launch command's whole process group (the shell and whatever it started).
-        for _ in 0..20 {
+        for _ in 0..LAUNCHED_EXIT_POLLS {
             if matches!(self.child.try_wait(), Ok(Some(_))) {
                 return;
             }
-            std::thread::sleep(Duration::from_millis(25));
+            std::thread::sleep(LAUNCHED_EXIT_POLL);
         }
+        // `kill` stays: `Child::kill` signals only the shell, so an `ssh` or worker it started
+        // would live on, and std has no call that signals a process group (`libc::killpg`
+        // would need `unsafe`, which the workspace forbids). `Child::kill` below still stops
+        // the shell where `kill` is missing.
         let group = format!("-{}", self.child.id());
         let _ = Command::new("kill")
             .args(["-TERM", "--", &group])
@@ -186,7 +198,7 @@ pub fn start_workers(
     }
 
     for endpoint in dial {
-        match strahl_tcp::connect(&endpoint, Duration::from_secs(5))
+        match strahl_tcp::connect(&endpoint, DIAL_TIMEOUT)
             .and_then(|s| Link::from_tcp(endpoint.clone(), s))
         {
             Ok(link) => w.links.push(link),
@@ -235,7 +247,7 @@ fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> 
                             }
                         }
                     }
-                    Err(_) => std::thread::sleep(Duration::from_millis(20)),
+                    Err(_) => std::thread::sleep(POLL_INTERVAL),
                 }
             }
         })

@@ -15,6 +15,8 @@ use crate::render::shade::TraceScratch;
 use crate::render::stats::RayCounts;
 use crate::scene::effects::is_adaptive;
 use crate::scene::Scene;
+use alloc::vec;
+use alloc::vec::Vec;
 
 /// Bytes of a mask for a line `width` pixels wide: one bit per pixel, pixel `x` in bit `x % 8` of
 /// byte `x / 8`.
@@ -124,6 +126,79 @@ pub fn merge_refined(mask: &[u8], refined: &[Pixel], line: &mut [Pixel]) {
     }
 }
 
+/// The bookkeeping of the second pass over one image, with no I/O: which lines have their
+/// centres in, and each line's flagged pixels once they can be known (its centres and its
+/// neighbours' are in). [`crate::render::render_image`] and the cluster's master both use it,
+/// so they decide the same lines the same way.
+#[derive(Clone, Debug)]
+pub struct SecondPass {
+    threshold: f32,
+    width: u32,
+    /// Every line's first-pass pixels, row-major (black until the line is in).
+    centres: Vec<Pixel>,
+    /// Whether each line's centres are in.
+    have: Vec<bool>,
+    /// Each line's mask ([`mask_len`] bytes per line), valid where `flagged` is known.
+    masks: Vec<u8>,
+    /// How many pixels each line has flagged, once known.
+    flagged: Vec<Option<u32>>,
+}
+
+impl SecondPass {
+    /// The second pass of a `width × height` image supersampling where centres differ by more
+    /// than `threshold`; no line is in.
+    pub fn new(threshold: f32, width: u32, height: u32) -> Self {
+        let h = height as usize;
+        SecondPass {
+            threshold,
+            width,
+            centres: vec![Pixel::default(); width as usize * h],
+            have: vec![false; h],
+            masks: vec![0; mask_len(width) * h],
+            flagged: vec![None; h],
+        }
+    }
+
+    /// Records the centres of line `y` (`width` pixels) and returns the lines whose flagged
+    /// pixels became known with them, top first: of `y − 1`, `y` and `y + 1`, those not yet
+    /// known whose centres and whose neighbours' centres are all in. A line out of the image
+    /// or of the wrong width is ignored.
+    pub fn add_centres(&mut self, y: u32, centres: &[Pixel]) -> [Option<u32>; 3] {
+        let (w, h) = (self.width as usize, self.have.len() as u32);
+        let mut known = [None; 3];
+        if y >= h || centres.len() != w {
+            return known;
+        }
+        let at = y as usize * w;
+        self.centres[at..at + w].copy_from_slice(centres);
+        self.have[y as usize] = true;
+        let is_in = |l: u32| self.have[l as usize];
+        for (slot, line) in known.iter_mut().zip(y.saturating_sub(1)..(y + 2).min(h)) {
+            let ready = self.flagged[line as usize].is_none()
+                && is_in(line)
+                && (line == 0 || is_in(line - 1))
+                && (line + 1 == h || is_in(line + 1));
+            if ready {
+                *slot = Some(line);
+            }
+        }
+        for line in known.iter().flatten() {
+            let n = mask_len(self.width);
+            let mask = &mut self.masks[*line as usize * n..(*line as usize + 1) * n];
+            let flagged = edge_mask(self.threshold, &self.centres, self.width, *line, mask);
+            self.flagged[*line as usize] = Some(flagged);
+        }
+        known
+    }
+
+    /// Line `y`'s mask and how many pixels it flags, once known.
+    pub fn decision(&self, y: u32) -> Option<(&[u8], u32)> {
+        let flagged = (*self.flagged.get(y as usize)?)?;
+        let n = mask_len(self.width);
+        Some((&self.masks[y as usize * n..(y as usize + 1) * n], flagged))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -149,6 +224,29 @@ mod tests {
         // The top line has no line above: only the pixel over the bright one is flagged.
         assert_eq!(edge_mask(0.1, &image, 10, 0, &mut mask), 1);
         assert!(is_flagged(&mask, 4));
+    }
+
+    #[test]
+    fn a_line_is_decided_once_it_and_its_neighbours_are_in() {
+        // Three lines of 10, as above, arriving bottom, top, middle.
+        let mut image = [GREY; 30];
+        image[14] = Pixel([30000, 40000, 30000]);
+        image[28] = Pixel([0, 0, 0]);
+        let mut pass = SecondPass::new(0.1, 10, 3);
+        assert_eq!(pass.add_centres(2, &image[20..]), [None, None, None]);
+        assert_eq!(pass.add_centres(0, &image[..10]), [None, None, None]);
+        assert!(pass.decision(1).is_none());
+        assert_eq!(
+            pass.add_centres(1, &image[10..20]),
+            [Some(0), Some(1), Some(2)]
+        );
+        let mut mask = [0u8; 2];
+        for y in 0..3 {
+            let n = edge_mask(0.1, &image, 10, y, &mut mask);
+            assert_eq!(pass.decision(y), Some((&mask[..], n)));
+        }
+        // A line is decided once.
+        assert_eq!(pass.add_centres(1, &image[10..20]), [None, None, None]);
     }
 
     #[test]

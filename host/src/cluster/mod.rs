@@ -1,8 +1,27 @@
 //! Distributed rendering: the master, its scheduler, the links to workers, and the in-process
 //! workers and simulated cluster that use the same protocol.
 //!
+//! How the parts fit, from the wire inwards: a [`link`] is two byte streams to one worker (TCP,
+//! a serial port or an in-process [`pipe`]). The `link_threads` read and write each link on
+//! their own threads and turn frames into events. The `session` is the master's state
+//! machine with no I/O: per-worker state, which tasks are in flight, re-issue of lost ones,
+//! dropping of duplicates; it asks the [`schedule`] which line goes next (the one window
+//! policy). The `assembly` puts the first result of each task into the image, with the core's
+//! adaptive bookkeeping for the second pass. The [`master`] runs the loop that ties them
+//! together and says what a render's options, job, image and errors are.
+//!
+//! Executors: [`local`] worker threads (the default of `strahl render`), TCP and serial workers
+//! (started by [`crate::executor`]), each behind a [`link`]; [`prepared`] holds a scene built
+//! and encoded once for all of them. For testing and planning: [`sim`] runs many in-process
+//! workers with link models and seeded faults against the real master, and [`model`] is a
+//! discrete-event model in virtual time that calls the same scheduler and window policy.
+//! [`report`] says what each worker did.
+//!
 //! - [`schedule`]: which line goes to which worker (no I/O, no clock).
+//! - `session`: each worker's session and the tasks in flight (no I/O).
+//! - `assembly`: the image from the results.
 //! - [`master`]: the master loop over any set of [`link::Link`]s.
+//! - `link_threads`: the reader and writer thread of each link.
 //! - [`link`]: a connection to one worker over TCP, a serial port or an in-process [`pipe`].
 //! - [`pipe`]: in-process byte pipes, with a link model (latency, bandwidth, bit flips).
 //! - [`prepared`]: a scene built once and encoded once, for the master and in-process workers.
@@ -12,7 +31,19 @@
 //!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
 
+use std::time::Duration;
+
+/// How often a waiting thread of the cluster looks again: the master's loop checks time-outs,
+/// a blocked pipe read whether the pipe was closed, a hung simulated worker whether its link
+/// was cut, the accepting thread for a new worker.
+pub const POLL_INTERVAL: Duration = Duration::from_millis(20);
+
+/// How long the master tries to reach a TCP worker it dials before going on without it.
+pub const DIAL_TIMEOUT: Duration = Duration::from_secs(5);
+
+pub(crate) mod assembly;
 pub mod link;
+pub(crate) mod link_threads;
 pub mod local;
 pub mod master;
 pub mod model;
@@ -20,4 +51,5 @@ pub mod pipe;
 pub mod prepared;
 pub mod report;
 pub mod schedule;
+pub(crate) mod session;
 pub mod sim;

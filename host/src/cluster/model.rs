@@ -1,6 +1,7 @@
 //! A discrete-event model of a render on a cluster, for machines this one does not have.
 //!
-//! The model runs the master's real [`LineScheduler`] in virtual time: each worker answers its
+//! The model runs the master's real [`LineScheduler`] and window policy
+//! ([`LineScheduler::fill_window`]) in virtual time: each worker answers its
 //! requests in order, a line costs what it cost on this machine divided by the worker's speed,
 //! every message takes the link's one-way latency, and the master (one thread) spends a fixed
 //! time on each result before it sends the next request, which is what limits large clusters. Line
@@ -89,7 +90,6 @@ pub fn simulate(p: &ModelParams) -> ModelResult {
     let mut heap = BinaryHeap::new();
     let mut now = 0.0f64;
     let mut master_free = 0.0f64;
-    let window = p.window.max(1) as usize;
     let send = |w: &mut ModelWorker, id: usize, line: u32, now: f64, heap: &mut BinaryHeap<_>| {
         let arrival = now + p.latency;
         let start = arrival.max(w.free_at);
@@ -104,17 +104,8 @@ pub fn simulate(p: &ModelParams) -> ModelResult {
     };
     loop {
         for (id, w) in workers.iter_mut().enumerate() {
-            while w.outstanding.len() < window {
-                let Some(line) = sched.next_waiting() else {
-                    break;
-                };
+            for line in sched.fill_window(w.outstanding.len(), p.window) {
                 send(w, id, line, now, &mut heap);
-            }
-            if w.outstanding.is_empty() {
-                let held = |l: u32| w.outstanding.contains(&l);
-                if let Some(line) = sched.next_copy(held) {
-                    send(w, id, line, now, &mut heap);
-                }
             }
         }
         if sched.is_complete() {

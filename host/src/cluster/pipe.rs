@@ -6,6 +6,7 @@
 //! write, a bandwidth that makes writes take time, and seeded bit flips. Closing either end (or
 //! dropping it) ends the stream for both: reads return end of stream, writes a broken pipe.
 
+use crate::cluster::POLL_INTERVAL;
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};
@@ -24,9 +25,6 @@ pub struct LinkModel {
     /// Seed of the bit flips.
     pub seed: u64,
 }
-
-/// How often a blocked read looks whether the pipe was closed.
-const CLOSE_POLL: Duration = Duration::from_millis(20);
 
 struct Chunk {
     bytes: Vec<u8>,
@@ -113,7 +111,7 @@ impl Read for PipeReader {
             if self.closed.is_closed() {
                 return Ok(0);
             }
-            match self.rx.recv_timeout(CLOSE_POLL) {
+            match self.rx.recv_timeout(POLL_INTERVAL) {
                 Ok(chunk) => {
                     let now = Instant::now();
                     if chunk.deliver_at > now {

@@ -7,11 +7,51 @@
 //! A line given up by its last holder (worker lost, request lost) goes back to the front of the
 //! queue. The simulated cluster's discrete-event model drives this same type.
 //!
-//! The master schedules tasks: with adaptive multisampling each line has two, its first pass
-//! (task `y`) and its second (task `height + y`), which is queued only once the first passes of
-//! the line and its neighbours are in (or finished at once when no pixel needs it).
+//! The master schedules [`Task`]s: with adaptive multisampling each line has two, its first
+//! pass and its second, which is queued only once the first passes of the line and its
+//! neighbours are in (or finished at once when no pixel needs it). The scheduler numbers them
+//! ([`Task::index`]).
 
 use std::collections::VecDeque;
+
+/// What a worker is asked to do for one line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Task {
+    /// The line's (first) pass: `RenderLine`, answered by a `LineResult` not marked refined.
+    Line(u32),
+    /// Adaptive multisampling's second pass of the line: `RefineLine`, answered by a
+    /// `LineResult` marked refined.
+    Refine(u32),
+}
+
+impl Task {
+    /// The task a `LineResult` for `line` answers, `refined` or not.
+    pub fn from_wire(line: u32, refined: bool) -> Task {
+        if refined {
+            Task::Refine(line)
+        } else {
+            Task::Line(line)
+        }
+    }
+
+    /// The task's number in the [`LineScheduler`] of an image `height` lines high: first passes
+    /// are `0..height`, second passes `height..2 × height`. This and [`Task::from_index`] are
+    /// the one place that numbering is written.
+    pub fn index(self, height: u32) -> u32 {
+        match self {
+            Task::Line(y) => y,
+            Task::Refine(y) => height + y,
+        }
+    }
+
+    /// The task numbered `index` in an image `height` lines high ([`Task::index`]).
+    pub fn from_index(index: u32, height: u32) -> Task {
+        match index.checked_sub(height) {
+            Some(y) => Task::Refine(y),
+            None => Task::Line(index),
+        }
+    }
+}
 
 /// The state of every line of one image.
 #[derive(Clone, Debug)]
@@ -117,6 +157,24 @@ impl LineScheduler {
         true
     }
 
+    /// The window policy, for the master and the model alike: the lines to hand a worker that
+    /// has `outstanding` requests and room for `window` (at least 1). Waiting lines fill its
+    /// window; a worker with nothing outstanding when nothing waits gets a copy of a line in
+    /// flight ([`LineScheduler::next_copy`]; it holds no line, so any copy is one it lacks).
+    pub fn fill_window(&mut self, outstanding: usize, window: u32) -> Vec<u32> {
+        let mut lines = Vec::new();
+        while outstanding + lines.len() < window.max(1) as usize {
+            let Some(line) = self.next_waiting() else {
+                break;
+            };
+            lines.push(line);
+        }
+        if outstanding == 0 && lines.is_empty() {
+            lines.extend(self.next_copy(|_| false));
+        }
+        lines
+    }
+
     /// A holder gives `line` up without a result. Returns `true` if the line went back to the
     /// queue (no other holder, not finished).
     pub fn release(&mut self, line: u32) -> bool {
@@ -183,6 +241,17 @@ mod tests {
         );
         assert!(s.complete(3, true));
         assert!(s.is_complete());
+    }
+
+    #[test]
+    fn a_window_fills_with_waiting_lines_then_a_copy() {
+        let mut s = LineScheduler::new(3);
+        assert_eq!(s.fill_window(0, 2), [0, 1]);
+        assert_eq!(s.fill_window(2, 2), [0u32; 0], "a full window gets nothing");
+        assert_eq!(s.fill_window(0, 0), [2], "a window of 0 counts as 1");
+        // Nothing waits: only a worker with nothing outstanding gets a copy.
+        assert_eq!(s.fill_window(1, 2), [0u32; 0]);
+        assert_eq!(s.fill_window(0, 2), [0]);
     }
 
     #[test]

@@ -8,9 +8,10 @@
 
 use crate::cluster::link::Link;
 use crate::cluster::pipe::{duplex, LinkModel, PipeCloser, PipeEnd};
+use crate::cluster::POLL_INTERVAL;
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use embedded_io_adapters::std::FromStd;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 use strahl_core::worker::{serve, NodeInfo, SceneCache};
 
 /// What goes wrong with a simulated worker.
@@ -94,7 +95,7 @@ impl FaultyLink {
             }
             Fault::HangAt(n) if self.frames >= n => {
                 while !self.closer.is_closed() {
-                    std::thread::sleep(Duration::from_millis(20));
+                    std::thread::sleep(POLL_INTERVAL);
                 }
                 Err(ErrorKind::BrokenPipe)
             }

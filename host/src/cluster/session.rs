@@ -1,0 +1,876 @@
+//! The session state machine of the master, with no I/O and no threads: where each worker is
+//! in its session, which tasks it has in flight, what is re-issued when requests or workers are
+//! lost, and which results are duplicates. It takes [`Event`]s and answers through a [`Wire`]
+//! (the [`link threads`](crate::cluster::link_threads), or a recorder in tests).
+//!
+//! Each worker is greeted (`Hello`), given the job (`Job`, then scene chunks as it asks for
+//! them) and, once `Ready`, kept with a full window of requests from the [`LineScheduler`]'s
+//! window policy. The first result of a task goes to the [`Assembly`]; later copies are counted
+//! and dropped. Lost work is found three ways. Workers answer requests in order, so a result for
+//! a later request means the earlier ones were lost on the link. A dropped frame (either side)
+//! or a silent worker gets a `Fence`; its `FenceAck` marks every request sent before it as lost.
+//! A worker silent for the whole time-out, closed, or refusing the job is dropped. Lost tasks go
+//! back to the front of the queue.
+
+use crate::cluster::assembly::{Assembly, Decided};
+use crate::cluster::link::LinkKind;
+use crate::cluster::master::{ClusterError, ClusterImage, ClusterJob, MasterOptions};
+use crate::cluster::report::WorkerReport;
+use crate::cluster::schedule::{LineScheduler, Task};
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Instant;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::wire::message::{Hello, MasterMessage, Refusal};
+use strahl_core::wire::{PROTOCOL_VERSION, SCENE_WINDOW};
+
+/// Where the session sends its messages to workers.
+pub(crate) trait Wire {
+    /// Queues `msg` for worker `id` (nothing once its link is cut).
+    fn send(&mut self, id: usize, msg: &MasterMessage<'_>);
+    /// Bytes queued for worker `id` and not yet written.
+    fn queued(&self, id: usize) -> usize;
+    /// When a scene chunk to worker `id` was last written (or its link was set up).
+    fn last_chunk_write(&self, id: usize) -> Instant;
+    /// Cuts worker `id`'s link: nothing more goes out, blocked reads and writes return.
+    fn cut(&mut self, id: usize);
+}
+
+/// A worker's message, decoded and checked in its reader thread, owning its data. It mirrors
+/// [`strahl_core::wire::message::WorkerMessage`] field for field (which borrows the frame,
+/// so cannot cross the channel), keeping only what the session reads.
+#[derive(Debug)]
+pub(crate) enum Incoming {
+    Hello {
+        version: u32,
+        name: String,
+        arch: String,
+    },
+    NeedScene {
+        job: u32,
+        offset: u32,
+        restart: bool,
+    },
+    Ready {
+        job: u32,
+    },
+    Line {
+        job: u32,
+        line: u32,
+        refined: bool,
+        rays: RayCounts,
+        pixels: Vec<Pixel>,
+    },
+    FenceAck {
+        seq: u32,
+    },
+    Dropped,
+    Refused {
+        job: u32,
+        reason: Refusal,
+    },
+}
+
+/// What the link threads tell the master loop.
+#[derive(Debug)]
+pub(crate) enum Event {
+    Message(usize, Incoming),
+    BadFrame(usize),
+    Closed(usize, String),
+}
+
+/// Where a worker is in its session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum State {
+    /// `Hello` sent, waiting for the worker's.
+    Greeting,
+    /// `Job` sent; the scene may be in transfer.
+    Loading,
+    /// Ready for line requests.
+    Working,
+    /// Dropped; see the report.
+    Gone,
+}
+
+/// What a silent worker is sent to see whether it is still there.
+#[derive(Clone, Copy, Debug)]
+enum Probe {
+    /// `Hello` again (it has not greeted).
+    Hello,
+    /// `Job` again (it is loading the scene).
+    Job,
+    /// A `Fence` (it is working).
+    Fence,
+}
+
+/// One outstanding request.
+#[derive(Clone, Copy, Debug)]
+struct Request {
+    task: Task,
+    seq: u32,
+    sent: Instant,
+}
+
+/// The pending fence of a worker.
+#[derive(Clone, Copy, Debug)]
+struct Fence {
+    /// Its number.
+    seq: u32,
+    /// The first request sequence number sent after it: requests before it are lost once it is
+    /// answered.
+    upto: u32,
+    sent: Instant,
+}
+
+/// The session's view of one worker.
+struct Peer {
+    report: WorkerReport,
+    state: State,
+    /// The last step forward: its `Hello`, a `NeedScene` further on than before, `Ready`, a
+    /// result for a line it was asked for (or the request that ended an idle spell). Fence
+    /// answers, drop notices, bad frames and stale messages are no progress: a worker that is
+    /// alive but delivers nothing is dropped like a silent one.
+    last_progress: Instant,
+    last_probe: Instant,
+    requests: VecDeque<Request>,
+    next_seq: u32,
+    fence: Option<Fence>,
+    last_result: Option<Instant>,
+    /// Scene bytes queued for sending so far (from the last restart).
+    scene_sent_upto: u32,
+    /// The furthest offset the worker has asked for.
+    scene_asked: Option<u32>,
+    /// Every request it got has its answer (requests lost on the link do not count).
+    idle: bool,
+}
+
+/// Scene bytes a master keeps queued for one worker at most: the two windows the protocol
+/// allows in flight, plus frame overhead.
+const SCENE_QUEUE_LIMIT: usize = 2 * SCENE_WINDOW as usize + 4096;
+
+/// The master's session with every worker of one render.
+pub(crate) struct Session<'a> {
+    job: &'a ClusterJob,
+    opts: &'a MasterOptions,
+    peers: Vec<Peer>,
+    sched: LineScheduler,
+    image: Assembly,
+    on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
+    log: &'a (dyn Fn(&str) + Sync),
+}
+
+impl<'a> Session<'a> {
+    /// A session for `job` with no worker yet; `on_line(y, rays)` is called for each line's
+    /// final pixels, `log` with a message for each worker lost.
+    pub(crate) fn new(
+        job: &'a ClusterJob,
+        opts: &'a MasterOptions,
+        on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
+        log: &'a (dyn Fn(&str) + Sync),
+    ) -> Self {
+        let sched = match job.adaptive {
+            Some(_) => LineScheduler::with_pending(2 * job.height, job.height),
+            None => LineScheduler::new(job.height),
+        };
+        Session {
+            job,
+            opts,
+            peers: Vec::new(),
+            sched,
+            image: Assembly::new(job),
+            on_line,
+            log,
+        }
+    }
+
+    /// Adds a worker reached at `address` over `kind`, numbered in order from 0, and greets it.
+    /// If its link threads did not start (`link_ok` false) it is dropped at once instead.
+    pub(crate) fn add(
+        &mut self,
+        address: &str,
+        kind: LinkKind,
+        link_ok: bool,
+        wire: &mut dyn Wire,
+    ) {
+        let id = self.peers.len();
+        let now = Instant::now();
+        self.peers.push(Peer {
+            report: WorkerReport::new(address, kind),
+            state: State::Greeting,
+            last_progress: now,
+            last_probe: now,
+            requests: VecDeque::new(),
+            next_seq: 0,
+            fence: None,
+            last_result: None,
+            scene_sent_upto: 0,
+            scene_asked: None,
+            idle: false,
+        });
+        if link_ok {
+            self.send_hello(id, wire);
+        } else {
+            self.lose(id, "cannot start its link threads".to_string(), wire);
+        }
+    }
+
+    /// Whether every task has its result.
+    pub(crate) fn is_complete(&self) -> bool {
+        self.sched.is_complete()
+    }
+
+    /// Whether some worker is still in the session.
+    pub(crate) fn any_alive(&self) -> bool {
+        self.peers.iter().any(|p| p.state != State::Gone)
+    }
+
+    /// The workers still in the session.
+    pub(crate) fn alive(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.peers.len()).filter(|&id| self.peers[id].state != State::Gone)
+    }
+
+    /// How many workers joined.
+    pub(crate) fn workers(&self) -> usize {
+        self.peers.len()
+    }
+
+    fn send_hello(&self, id: usize, wire: &mut dyn Wire) {
+        let msg = MasterMessage::Hello(Hello {
+            version: PROTOCOL_VERSION,
+            name: &self.opts.name,
+            arch: std::env::consts::ARCH,
+            scene_memory: 0,
+        });
+        wire.send(id, &msg);
+    }
+
+    fn send_job(&self, id: usize, wire: &mut dyn Wire) {
+        let (job, digest, scene_len) = (self.job.id, self.job.blob.digest, self.job.blob.len());
+        wire.send(
+            id,
+            &MasterMessage::Job {
+                job,
+                digest,
+                scene_len,
+            },
+        );
+    }
+
+    fn send_fence(&mut self, id: usize, now: Instant, wire: &mut dyn Wire) {
+        let peer = &mut self.peers[id];
+        let seq = peer.next_seq;
+        peer.next_seq += 1;
+        peer.fence = Some(Fence {
+            seq,
+            upto: seq,
+            sent: now,
+        });
+        wire.send(id, &MasterMessage::Fence { seq });
+    }
+
+    /// Takes one event from the link threads.
+    pub(crate) fn handle(&mut self, event: Event, wire: &mut dyn Wire) {
+        let id = match &event {
+            Event::Message(id, _) | Event::BadFrame(id) | Event::Closed(id, _) => *id,
+        };
+        if self.peers[id].state == State::Gone {
+            return;
+        }
+        let now = Instant::now();
+        match event {
+            Event::Closed(_, reason) => self.lose(id, reason, wire),
+            Event::BadFrame(_) => {
+                self.peers[id].report.frames_dropped += 1;
+                self.fence_after_loss(id, now, wire);
+            }
+            Event::Message(_, msg) => self.take(id, msg, now, wire),
+        }
+    }
+
+    /// After a frame was lost on a working worker's link, asks which requests survived (again,
+    /// if the pending fence is older than a probe interval: the fence itself may be lost).
+    fn fence_after_loss(&mut self, id: usize, now: Instant, wire: &mut dyn Wire) {
+        let peer = &self.peers[id];
+        let pending = peer
+            .fence
+            .is_some_and(|f| now.saturating_duration_since(f.sent) < self.opts.probe_interval);
+        if peer.state == State::Working && !pending {
+            self.send_fence(id, now, wire);
+        }
+    }
+
+    /// Queues scene chunks for a loading worker: up to two windows past what it asked for, and
+    /// no more than [`SCENE_QUEUE_LIMIT`] bytes waiting at once.
+    fn pump_scene(&mut self, id: usize, wire: &mut dyn Wire) {
+        let Some(asked) = self.peers[id].scene_asked else {
+            return;
+        };
+        let blob = Arc::clone(&self.job.blob);
+        let until = blob.len().min(asked.saturating_add(2 * SCENE_WINDOW));
+        while self.peers[id].scene_sent_upto < until && wire.queued(id) < SCENE_QUEUE_LIMIT {
+            let at = self.peers[id].scene_sent_upto;
+            let bytes = blob.chunk_at(at);
+            if bytes.is_empty() {
+                break;
+            }
+            self.peers[id].scene_sent_upto = at + bytes.len() as u32;
+            wire.send(
+                id,
+                &MasterMessage::SceneChunk {
+                    digest: blob.digest,
+                    offset: at,
+                    bytes,
+                },
+            );
+        }
+    }
+
+    fn take(&mut self, id: usize, msg: Incoming, now: Instant, wire: &mut dyn Wire) {
+        let job = self.job.id;
+        match msg {
+            Incoming::Hello {
+                version,
+                name,
+                arch,
+            } => self.on_hello(id, version, name, arch, now, wire),
+            Incoming::NeedScene {
+                job: j,
+                offset,
+                restart,
+            } if j == job => self.on_need_scene(id, offset, restart, now, wire),
+            Incoming::Ready { job: j } if j == job => {
+                let peer = &mut self.peers[id];
+                if matches!(peer.state, State::Greeting | State::Loading) {
+                    peer.state = State::Working;
+                    peer.last_progress = now;
+                    peer.idle = true;
+                }
+            }
+            Incoming::Line {
+                job: j,
+                line,
+                refined,
+                rays,
+                pixels,
+            } if j == job
+                && line < self.job.height
+                && (!refined || self.job.adaptive.is_some()) =>
+            {
+                let task = Task::from_wire(line, refined);
+                self.take_line(id, task, rays, &pixels, now);
+            }
+            Incoming::FenceAck { seq } => self.on_fence_ack(id, seq),
+            Incoming::Dropped => {
+                self.peers[id].report.frames_dropped += 1;
+                self.fence_after_loss(id, now, wire);
+            }
+            Incoming::Refused { job: j, reason } if j == job => {
+                let reason = format!("it refused the job: {}", refusal_text(reason));
+                self.lose(id, reason, wire);
+            }
+            // Messages about another job (an earlier one), or a line outside the image.
+            Incoming::NeedScene { .. }
+            | Incoming::Ready { .. }
+            | Incoming::Line { .. }
+            | Incoming::Refused { .. } => {
+                self.peers[id].report.frames_dropped += 1;
+            }
+        }
+    }
+
+    fn on_hello(
+        &mut self,
+        id: usize,
+        version: u32,
+        name: String,
+        arch: String,
+        now: Instant,
+        wire: &mut dyn Wire,
+    ) {
+        if self.peers[id].state != State::Greeting {
+            return;
+        }
+        if version != PROTOCOL_VERSION {
+            return self.lose(
+                id,
+                format!(
+                    "it speaks protocol version {version}, this master speaks version \
+                     {PROTOCOL_VERSION}"
+                ),
+                wire,
+            );
+        }
+        let peer = &mut self.peers[id];
+        peer.last_progress = now;
+        peer.report.name = name;
+        peer.report.arch = arch;
+        peer.state = State::Loading;
+        self.send_job(id, wire);
+    }
+
+    fn on_need_scene(
+        &mut self,
+        id: usize,
+        offset: u32,
+        restart: bool,
+        now: Instant,
+        wire: &mut dyn Wire,
+    ) {
+        let peer = &mut self.peers[id];
+        if !matches!(peer.state, State::Greeting | State::Loading) {
+            return;
+        }
+        peer.state = State::Loading;
+        if peer.scene_asked.is_none_or(|a| offset > a) {
+            peer.last_progress = now;
+        }
+        peer.scene_asked = Some(peer.scene_asked.map_or(offset, |a| a.max(offset)));
+        if restart || offset > peer.scene_sent_upto {
+            peer.scene_sent_upto = offset;
+        }
+        self.pump_scene(id, wire);
+    }
+
+    fn on_fence_ack(&mut self, id: usize, seq: u32) {
+        let peer = &mut self.peers[id];
+        let Some(fence) = peer.fence.filter(|f| f.seq == seq) else {
+            return;
+        };
+        peer.fence = None;
+        let lost: Vec<Task> = peer
+            .requests
+            .iter()
+            .filter(|r| r.seq < fence.upto)
+            .map(|r| r.task)
+            .collect();
+        peer.requests.retain(|r| r.seq >= fence.upto);
+        self.release(id, &lost);
+    }
+
+    fn take_line(
+        &mut self,
+        id: usize,
+        task: Task,
+        rays: RayCounts,
+        pixels: &[Pixel],
+        now: Instant,
+    ) {
+        let peer = &mut self.peers[id];
+        // Only answers to requests count; anything else is a peer's mistake, not a pixel.
+        let Some(i) = peer.requests.iter().position(|r| r.task == task) else {
+            peer.report.frames_dropped += 1;
+            return;
+        };
+        peer.last_progress = now;
+        // Requests are answered in order: those before this one were lost.
+        let lost: Vec<Task> = peer.requests.drain(..i).map(|r| r.task).collect();
+        if let Some(r) = peer.requests.pop_front() {
+            let started = peer.last_result.map_or(r.sent, |t| t.max(r.sent));
+            peer.report.busy += now.saturating_duration_since(started);
+        }
+        peer.last_result = Some(now);
+        peer.idle = peer.requests.is_empty() && lost.is_empty();
+        peer.report.rays += rays;
+        if self.sched.complete(task.index(self.job.height), true) {
+            self.peers[id].report.lines += 1;
+            self.use_result(task, rays, pixels);
+        } else {
+            self.peers[id].report.duplicates += 1;
+        }
+        self.release(id, &lost);
+    }
+
+    /// Puts the first result of `task` into the image; queues or finishes the second passes it
+    /// decides.
+    fn use_result(&mut self, task: Task, rays: RayCounts, pixels: &[Pixel]) {
+        let h = self.job.height;
+        match task {
+            Task::Line(y) => match self.image.put_line(y, rays, pixels) {
+                Decided::Final => (self.on_line)(y, rays),
+                Decided::Refine(lines) => {
+                    for (line, refine) in lines.into_iter().flatten() {
+                        let second = Task::Refine(line).index(h);
+                        if refine {
+                            self.sched.queue(second);
+                        } else if self.sched.complete(second, false) {
+                            (self.on_line)(line, self.image.first_rays(line));
+                        }
+                    }
+                }
+            },
+            Task::Refine(y) => {
+                let all = self.image.put_refined(y, rays, pixels);
+                (self.on_line)(y, all);
+            }
+        }
+    }
+
+    /// Gives `tasks` of worker `id` back to the scheduler.
+    fn release(&mut self, id: usize, tasks: &[Task]) {
+        for &task in tasks {
+            if self.sched.release(task.index(self.job.height)) {
+                self.peers[id].report.reissued += 1;
+            }
+        }
+    }
+
+    /// Drops worker `id`: its tasks go back to the queue and its link is cut.
+    fn lose(&mut self, id: usize, reason: String, wire: &mut dyn Wire) {
+        let peer = &mut self.peers[id];
+        if peer.state == State::Gone {
+            return;
+        }
+        peer.state = State::Gone;
+        wire.cut(id);
+        let tasks: Vec<Task> = peer.requests.drain(..).map(|r| r.task).collect();
+        let before = peer.report.reissued;
+        self.release(id, &tasks);
+        let peer = &mut self.peers[id];
+        let requeued = peer.report.reissued - before;
+        let who = if peer.report.name == peer.report.address {
+            peer.report.name.clone()
+        } else {
+            format!("{} ({})", peer.report.name, peer.report.address)
+        };
+        (self.log)(&format!(
+            "worker {who} lost: {reason}; {requeued} line{} re-queued",
+            if requeued == 1 { "" } else { "s" }
+        ));
+        peer.report.lost = Some(reason);
+    }
+
+    /// Drops workers silent for the time-out, and probes those silent for a probe interval.
+    pub(crate) fn check_timeouts(&mut self, now: Instant, wire: &mut dyn Wire) {
+        for id in 0..self.peers.len() {
+            let peer = &self.peers[id];
+            // Only a worker the master waits on is timed out, and probed with what it last got.
+            let probe = match peer.state {
+                State::Gone => continue,
+                State::Working if peer.requests.is_empty() => continue,
+                State::Working => Probe::Fence,
+                State::Greeting => Probe::Hello,
+                State::Loading => Probe::Job,
+            };
+            // While scene chunks are still going out, the worker cannot answer yet: the time
+            // counts from the last chunk written (probes do not count).
+            let since = match peer.state {
+                State::Loading => peer.last_progress.max(wire.last_chunk_write(id)),
+                _ => peer.last_progress,
+            };
+            let stalled = now.saturating_duration_since(since);
+            if stalled >= self.opts.worker_timeout {
+                let reason = format!("no answer for {:.1} s", stalled.as_secs_f64());
+                self.lose(id, reason, wire);
+                continue;
+            }
+            if stalled < self.opts.probe_interval
+                || now.duration_since(peer.last_probe) < self.opts.probe_interval
+            {
+                continue;
+            }
+            self.peers[id].last_probe = now;
+            match probe {
+                Probe::Hello => self.send_hello(id, wire),
+                Probe::Job => self.send_job(id, wire),
+                Probe::Fence => self.send_fence(id, now, wire),
+            }
+        }
+    }
+
+    /// Sends loading workers more scene and fills working workers' windows.
+    pub(crate) fn fill_windows(&mut self, now: Instant, wire: &mut dyn Wire) {
+        for id in 0..self.peers.len() {
+            if self.peers[id].state == State::Loading {
+                self.pump_scene(id, wire);
+            }
+            if self.peers[id].state != State::Working {
+                continue;
+            }
+            let outstanding = self.peers[id].requests.len();
+            for index in self.sched.fill_window(outstanding, self.opts.window) {
+                let task = Task::from_index(index, self.job.height);
+                self.request(id, task, now, wire);
+            }
+        }
+    }
+
+    fn request(&mut self, id: usize, task: Task, now: Instant, wire: &mut dyn Wire) {
+        let peer = &mut self.peers[id];
+        let seq = peer.next_seq;
+        peer.next_seq += 1;
+        if peer.idle {
+            // A worker that answered everything it was asked was not hanging while it waited.
+            peer.last_progress = now;
+            peer.idle = false;
+        }
+        peer.requests.push_back(Request {
+            task,
+            seq,
+            sent: now,
+        });
+        let job = self.job.id;
+        match task {
+            Task::Line(line) => wire.send(id, &MasterMessage::RenderLine { job, line }),
+            Task::Refine(line) => {
+                let mask = self.image.refine_mask(line);
+                wire.send(
+                    id,
+                    &MasterMessage::RefineLine {
+                        job,
+                        line,
+                        mask: &mask,
+                    },
+                );
+            }
+        }
+    }
+
+    /// Lines whose final pixels are in.
+    fn lines_finished(&self) -> u32 {
+        let h = self.job.height;
+        match self.job.adaptive {
+            Some(_) => (0..h)
+                .filter(|&y| self.sched.is_done(Task::Refine(y).index(h)))
+                .count() as u32,
+            None => self.sched.finished(),
+        }
+    }
+
+    /// The image, or why there is none.
+    pub(crate) fn into_image(self) -> Result<ClusterImage, ClusterError> {
+        let finished = self.lines_finished();
+        let workers: Vec<WorkerReport> = self.peers.into_iter().map(|p| p.report).collect();
+        if !self.sched.is_complete() {
+            return Err(ClusterError::AllWorkersLost {
+                finished,
+                total: self.job.height,
+                workers,
+            });
+        }
+        let (pixels, rays) = self.image.into_parts();
+        Ok(ClusterImage {
+            pixels,
+            rays,
+            workers,
+        })
+    }
+}
+
+/// A refusal in words.
+pub fn refusal_text(reason: Refusal) -> String {
+    match reason {
+        Refusal::SceneTooLarge { limit } => {
+            format!("the scene needs more than the {limit} bytes it can give")
+        }
+        Refusal::BadScene(e) => format!("the scene is not renderable: {e}"),
+        Refusal::CorruptScene => "the scene arrived corrupted".to_string(),
+        Refusal::UnknownJob => "it does not know the job".to_string(),
+        Refusal::LineOutOfRange => "a line outside the image was requested".to_string(),
+        Refusal::BadMask => "a refine request did not fit the scene".to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cluster::master::AdaptiveJob;
+    use std::sync::Mutex;
+    use strahl_core::wire::scene_blob::{digest, SceneBlob};
+
+    /// A wire that writes down what the session sends and cuts.
+    #[derive(Default)]
+    struct Recorder {
+        sent: Vec<(usize, String)>,
+        cut: Vec<usize>,
+    }
+
+    impl Recorder {
+        /// What was sent since the last call.
+        fn take(&mut self) -> Vec<(usize, String)> {
+            std::mem::take(&mut self.sent)
+        }
+    }
+
+    impl Wire for Recorder {
+        fn send(&mut self, id: usize, msg: &MasterMessage<'_>) {
+            let text = match msg {
+                MasterMessage::Hello(_) => "Hello".to_string(),
+                MasterMessage::Job { .. } => "Job".to_string(),
+                MasterMessage::SceneChunk { offset, .. } => format!("SceneChunk {offset}"),
+                MasterMessage::RenderLine { line, .. } => format!("RenderLine {line}"),
+                MasterMessage::RefineLine { line, mask, .. } => {
+                    format!("RefineLine {line} {mask:?}")
+                }
+                MasterMessage::Fence { seq } => format!("Fence {seq}"),
+                MasterMessage::EndSession => "EndSession".to_string(),
+            };
+            self.sent.push((id, text));
+        }
+
+        fn queued(&self, _: usize) -> usize {
+            0
+        }
+
+        fn last_chunk_write(&self, _: usize) -> Instant {
+            Instant::now()
+        }
+
+        fn cut(&mut self, id: usize) {
+            self.cut.push(id);
+        }
+    }
+
+    fn job(width: u32, height: u32, adaptive: Option<AdaptiveJob>) -> ClusterJob {
+        let bytes = vec![7u8; 100];
+        ClusterJob {
+            id: 3,
+            blob: Arc::new(SceneBlob {
+                digest: digest(&bytes),
+                bytes,
+            }),
+            width,
+            height,
+            adaptive,
+        }
+    }
+
+    fn line(job: &ClusterJob, y: u32, refined: bool, value: u16) -> Event {
+        Event::Message(
+            0,
+            Incoming::Line {
+                job: job.id,
+                line: y,
+                refined,
+                rays: RayCounts {
+                    primary: 1,
+                    ..RayCounts::default()
+                },
+                pixels: vec![Pixel([value; 3]); job.width as usize],
+            },
+        )
+    }
+
+    /// Greets worker 0, loads it and makes it ready.
+    fn ready_worker(s: &mut Session<'_>, job: &ClusterJob, wire: &mut Recorder) {
+        s.add("w0", LinkKind::InProcess, true, wire);
+        let hello = Incoming::Hello {
+            version: PROTOCOL_VERSION,
+            name: "zero".to_string(),
+            arch: "test".to_string(),
+        };
+        s.handle(Event::Message(0, hello), wire);
+        let need = Incoming::NeedScene {
+            job: job.id,
+            offset: 0,
+            restart: false,
+        };
+        s.handle(Event::Message(0, need), wire);
+        s.handle(Event::Message(0, Incoming::Ready { job: job.id }), wire);
+    }
+
+    #[test]
+    fn a_worker_is_loaded_given_a_window_and_its_lost_requests_reissued() {
+        let job = job(2, 3, None);
+        let opts = MasterOptions::default();
+        let done = Mutex::new(Vec::new());
+        let on_line = |y, _| done.lock().expect("not poisoned").push(y);
+        let mut s = Session::new(&job, &opts, &on_line, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        let sent: Vec<String> = wire.take().into_iter().map(|(_, m)| m).collect();
+        assert_eq!(sent, ["Hello", "Job", "SceneChunk 0"]);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(
+            wire.take(),
+            [(0, "RenderLine 0".into()), (0, "RenderLine 1".into())]
+        );
+        // The answer to line 1 says the request for line 0 was lost: it is issued again.
+        s.handle(line(&job, 1, false, 5), &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(
+            wire.take(),
+            [(0, "RenderLine 0".into()), (0, "RenderLine 2".into())]
+        );
+        s.handle(line(&job, 0, false, 5), &mut wire);
+        s.handle(line(&job, 2, false, 5), &mut wire);
+        // A second answer for a line is counted, not used.
+        s.handle(line(&job, 2, false, 9), &mut wire);
+        assert!(s.is_complete());
+        assert_eq!(*done.lock().expect("not poisoned"), [1, 0, 2]);
+        let image = s.into_image().expect("complete");
+        let w = &image.workers[0];
+        assert_eq!((w.name.as_str(), w.lines, w.reissued), ("zero", 3, 1));
+        assert_eq!(w.frames_dropped, 1, "the unasked-for copy of line 2");
+        assert!(image.pixels.iter().all(|p| *p == Pixel([5; 3])));
+    }
+
+    #[test]
+    fn a_second_pass_is_asked_for_once_the_neighbours_are_in() {
+        let adaptive = AdaptiveJob {
+            threshold: 0.1,
+            refine_all: false,
+        };
+        let job = job(2, 3, Some(adaptive));
+        let opts = MasterOptions {
+            window: 3,
+            ..MasterOptions::default()
+        };
+        let done = Mutex::new(Vec::new());
+        let on_line = |y, _| done.lock().expect("not poisoned").push(y);
+        let mut s = Session::new(&job, &opts, &on_line, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        wire.take();
+        // Lines 0 and 1 are alike, line 2 differs: lines 1 and 2 need a second pass.
+        s.handle(line(&job, 0, false, 0), &mut wire);
+        s.handle(line(&job, 1, false, 0), &mut wire);
+        // Line 0 (the top) is decided by line 1 and needs no second pass; line 1 waits for 2.
+        assert_eq!(*done.lock().expect("not poisoned"), [0]);
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(wire.take(), []);
+        s.handle(line(&job, 2, false, 60000), &mut wire);
+        assert_eq!(*done.lock().expect("not poisoned"), [0]);
+        s.fill_windows(Instant::now(), &mut wire);
+        let sent: Vec<String> = wire.take().into_iter().map(|(_, m)| m).collect();
+        assert_eq!(sent, ["RefineLine 1 [3]", "RefineLine 2 [3]"]);
+        s.handle(line(&job, 1, true, 7), &mut wire);
+        s.handle(line(&job, 2, true, 7), &mut wire);
+        assert!(s.is_complete());
+        assert_eq!(*done.lock().expect("not poisoned"), [0, 1, 2]);
+        let pixels = s.into_image().expect("complete").pixels;
+        assert_eq!(pixels[0], Pixel([0; 3]));
+        assert!(pixels[2..].iter().all(|p| *p == Pixel([7; 3])));
+    }
+
+    #[test]
+    fn a_refusal_drops_the_worker_and_cuts_its_link() {
+        let job = job(2, 1, None);
+        let opts = MasterOptions::default();
+        let log = Mutex::new(Vec::new());
+        let log_fn = |m: &str| log.lock().expect("not poisoned").push(m.to_string());
+        let mut s = Session::new(&job, &opts, &|_, _| {}, &log_fn);
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        let refused = Incoming::Refused {
+            job: job.id,
+            reason: Refusal::CorruptScene,
+        };
+        s.handle(Event::Message(0, refused), &mut wire);
+        assert_eq!(wire.cut, [0]);
+        assert!(!s.any_alive());
+        assert_eq!(
+            *log.lock().expect("not poisoned"),
+            [
+                "worker zero (w0) lost: it refused the job: the scene arrived corrupted; 1 line \
+              re-queued"
+            ]
+        );
+        assert!(matches!(
+            s.into_image(),
+            Err(ClusterError::AllWorkersLost { finished: 0, .. })
+        ));
+    }
+}
