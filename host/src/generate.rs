@@ -1,11 +1,15 @@
 //! Procedural scenes: the demo room's `ROOM.txt`, the large benchmark scene, and meshes for tests.
 //!
 //! Everything here is deterministic (a fixed xorshift generator, no clock), so a generated file is
-//! the same on every machine. [`write_data_file`] writes a scene in the seed's data format, which
-//! is how the generated scenes reach users: `strahl generate room|large`.
+//! the same on every machine. The generated scenes reach users as files in the seed's formats,
+//! written by [`crate::formats::datafile::write_data_file`] and, for the large scene's
+//! [`large_config`], [`crate::formats::config::write_config`]: `strahl generate room|large`
+//! ([`crate::cli::generate`]). Benchmarks and the tests crate use the scenes directly.
 
+use crate::formats::config::Config;
+use crate::formats::datafile::write_data_file;
 use glam::Vec3;
-use std::fmt::Write as _;
+use std::path::PathBuf;
 use strahl_core::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
@@ -411,12 +415,7 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             casts_shadows: false,
         },
     ];
-    let camera = Camera::Seed(SeedCamera {
-        position: Vec3::new(0.0, -160.0, 60.0),
-        angle_x_deg: -18.0,
-        angle_z_deg: 0.0,
-        zoom: 1.2,
-    });
+    let camera = Camera::Seed(LARGE_CAMERA);
     SceneDesc {
         points: m.points,
         triangles: m.triangles,
@@ -427,64 +426,26 @@ pub fn large(min_triangles: u32) -> SceneDesc {
     }
 }
 
-/// Writes the geometry, shaders and lights of `desc` in the seed's data format (0-based indices),
-/// with `header` as `REM` lines. Numbers are written so they read back to the same `f32`.
-pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
-    let mut s = String::new();
-    for line in header.lines() {
-        let _ = writeln!(s, "REM {line}");
+/// The seed camera of the large scene: its [`SceneDesc`] and its configuration file share it.
+pub const LARGE_CAMERA: SeedCamera = SeedCamera {
+    position: Vec3::new(0.0, -160.0, 60.0),
+    angle_x_deg: -18.0,
+    angle_z_deg: 0.0,
+    zoom: 1.2,
+};
+
+/// The configuration file `strahl generate large` writes beside `LARGE.txt`: a 1024 × 768
+/// `large.bmp` under a sky-blue background, seen from [`LARGE_CAMERA`].
+pub fn large_config() -> Config {
+    Config {
+        image_name: Some(PathBuf::from("large.bmp")),
+        width: 1024,
+        height: 768,
+        input_data: Some(PathBuf::from("LARGE.txt")),
+        background: Vec3::new(0.55, 0.7, 0.9),
+        camera: LARGE_CAMERA,
+        ..Config::default()
     }
-    let _ = writeln!(
-        s,
-        "_OBJ {} {} {} {}",
-        desc.points.len(),
-        desc.triangles.len(),
-        desc.shaders.len(),
-        desc.lights.len()
-    );
-    for sh in &desc.shaders {
-        let _ = writeln!(
-            s,
-            "_SHD {} {} {} {} {} {} {} {} {} {} {}",
-            sh.ambient.x,
-            sh.ambient.y,
-            sh.ambient.z,
-            sh.diffuse.x,
-            sh.diffuse.y,
-            sh.diffuse.z,
-            sh.specular.x,
-            sh.specular.y,
-            sh.specular.z,
-            sh.shininess,
-            sh.reflection
-        );
-    }
-    for l in &desc.lights {
-        let _ = writeln!(
-            s,
-            "_LIGHT {} {} {} {} {} {} {} {}",
-            l.position.x,
-            l.position.y,
-            l.position.z,
-            l.color.x,
-            l.color.y,
-            l.color.z,
-            l.amount,
-            u8::from(l.casts_shadows)
-        );
-    }
-    for p in &desc.points {
-        let _ = writeln!(s, "_PT {} {} {}", p.x, p.y, p.z);
-    }
-    for t in &desc.triangles {
-        let _ = writeln!(
-            s,
-            "_TR {} {} {} {}",
-            t.points[0], t.points[1], t.points[2], t.shader
-        );
-    }
-    s.push_str("QUIT\n");
-    s
 }
 
 /// The text of `scenes/room/ROOM.txt`, exactly as `strahl generate room` writes it.
@@ -495,90 +456,4 @@ pub fn room_data_file() -> String {
          Floor and four walls, a smooth sphere, a smooth torus, a mirror, two lights\n\
          (the second casts no shadow). For the seed's example raytracer.cfg.",
     )
-}
-
-/// Which scene `strahl generate` writes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum SceneKind {
-    /// The demo room's `ROOM.txt` (for the seed's example `raytracer.cfg`).
-    Room,
-    /// The large benchmark scene: `LARGE.txt` and a `raytracer.cfg` for it.
-    Large,
-}
-
-/// Arguments of `strahl generate`.
-#[derive(Debug, clap::Args)]
-pub struct GenerateArgs {
-    /// The scene to write.
-    #[arg(value_enum)]
-    pub kind: SceneKind,
-    /// The folder to write into (it must exist).
-    #[arg(short, long, value_name = "DIR", default_value = ".")]
-    pub output: std::path::PathBuf,
-    /// Least number of triangles of the large scene.
-    #[arg(long, value_name = "N", default_value_t = 100_000,
-          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
-    pub triangles: u32,
-}
-
-/// Writes `text` to `path` atomically (see [`crate::output::write_atomically`]).
-fn write_atomically(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
-    use anyhow::Context as _;
-    use std::io::Write as _;
-    crate::output::write_atomically(path, |w| {
-        w.write_all(text.as_bytes())
-            .with_context(|| format!("{}: cannot write", path.display()))
-    })
-}
-
-/// Runs `strahl generate`: writes the chosen scene into the output folder.
-///
-/// # Errors
-/// A missing or unwritable output folder.
-pub fn run(args: &GenerateArgs) -> anyhow::Result<()> {
-    let dir = &args.output;
-    if !dir.is_dir() {
-        anyhow::bail!("{}: no such folder", dir.display());
-    }
-    match args.kind {
-        SceneKind::Room => {
-            write_atomically(&dir.join("ROOM.txt"), &room_data_file())?;
-            eprintln!("wrote {}", dir.join("ROOM.txt").display());
-        }
-        SceneKind::Large => {
-            let desc = large(args.triangles);
-            let header = format!(
-                "Strahl large benchmark scene, written by `strahl generate large --triangles {}`.\n\
-                 {} triangles: fractal terrain and a ring of twelve smooth spheres.",
-                args.triangles,
-                desc.triangles.len()
-            );
-            write_atomically(&dir.join("LARGE.txt"), &write_data_file(&desc, &header))?;
-            let Camera::Seed(c) = &desc.camera else {
-                anyhow::bail!("the large scene has a seed camera");
-            };
-            let cfg = format!(
-                "REM Strahl large benchmark scene ({} triangles)\n\
-                 $IMAGE_NAME large.bmp\n$IMAGE_WIDTH 1024\n$IMAGE_HEIGHT 768\n\
-                 $INPUT_DATA LARGE.txt\n$SHADOWS 1\n$REFLECTIONS 1\n\
-                 $COLOR_BG_R 0.55\n$COLOR_BG_G 0.7\n$COLOR_BG_B 0.9\n\
-                 $CAM_POS_X {}\n$CAM_POS_Y {}\n$CAM_POS_Z {}\n\
-                 $CAM_POS_ANGLE_X {}\n$CAM_POS_ANGLE_Z {}\n$CAM_POS_ZOOM {}\nQUIT\n",
-                desc.triangles.len(),
-                c.position.x,
-                c.position.y,
-                c.position.z,
-                c.angle_x_deg,
-                c.angle_z_deg,
-                c.zoom
-            );
-            write_atomically(&dir.join("raytracer.cfg"), &cfg)?;
-            eprintln!(
-                "wrote {} and {}",
-                dir.join("LARGE.txt").display(),
-                dir.join("raytracer.cfg").display()
-            );
-        }
-    }
-    Ok(())
 }

@@ -34,8 +34,8 @@ use strahl_core::transform::Transform;
 use strahl_core::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
+use strahl_host::formats::load::{load_config_scene, Overrides};
 use strahl_host::generate::Rng;
-use strahl_host::load::{load_config_scene, Overrides};
 use strahl_tests::{boundary_grid, positions, random_soup};
 
 // ---------------------------------------------------------------------------------------------

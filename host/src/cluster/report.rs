@@ -1,7 +1,7 @@
 //! What each worker did in a render: the per-worker table of the end summary.
 
 use crate::cluster::link::LinkKind;
-use crate::progress::format_ray_rate;
+use crate::util::units::format_ray_rate;
 use std::fmt;
 use std::time::Duration;
 use strahl_core::shade::RayCounts;

@@ -5,12 +5,12 @@
 //! worker outlives its masters: when one ends its session or disappears, it waits for the next.
 //! A dialling worker serves one render and exits, which suits launchers and batch schedulers.
 
+use crate::util::sys::{cut_name, host_name};
 use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
 use std::net::TcpListener;
 use std::time::Duration;
 use strahl_core::protocol::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
-use strahl_core::protocol::MAX_NAME_LEN;
 use strahl_tcp::SessionError;
 
 /// Arguments of `strahl worker`.
@@ -50,26 +50,6 @@ pub struct WorkerArgs {
     /// How long a dialling worker keeps trying to reach its master, in seconds.
     #[arg(long, value_name = "SECS", default_value_t = 30)]
     pub patience: u64,
-}
-
-/// The host name, from the kernel or the environment, cut to [`MAX_NAME_LEN`] bytes.
-pub fn host_name() -> String {
-    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .or_else(|| std::env::var("HOSTNAME").ok())
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "worker".to_string());
-    cut_name(&name)
-}
-
-/// `name` cut to at most [`MAX_NAME_LEN`] bytes on a character boundary.
-pub fn cut_name(name: &str) -> String {
-    let mut end = name.len().min(MAX_NAME_LEN);
-    while !name.is_char_boundary(end) {
-        end -= 1;
-    }
-    name[..end].to_string()
 }
 
 /// Memory the system reports available (`MemAvailable` in `/proc/meminfo`), if it does.

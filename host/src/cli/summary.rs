@@ -1,6 +1,6 @@
 //! The one line a render prints at the end: size, times, scene and octree, rays, output.
 
-use crate::progress::format_ray_rate;
+use crate::util::units::format_ray_rate;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;

@@ -1,0 +1,34 @@
+//! What the operating system says about this machine, and the waits the host side uses.
+//!
+//! [`host_name`] names this machine to its peers: a master puts it in its session header and in
+//! the address it gives launched workers, a worker gives it to its masters. Both sides take it
+//! from here, so neither the command line nor the cluster depends on the other for it.
+
+use std::time::Duration;
+use strahl_core::protocol::MAX_NAME_LEN;
+
+/// How long connecting to a TCP worker may take before it counts as unreachable.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long a polling loop (a non-blocking accept) sleeps between looks.
+pub const POLL_INTERVAL: Duration = Duration::from_millis(20);
+
+/// The host name, from the kernel or the environment, cut to [`MAX_NAME_LEN`] bytes.
+pub fn host_name() -> String {
+    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "worker".to_string());
+    cut_name(&name)
+}
+
+/// `name` cut to at most [`MAX_NAME_LEN`] bytes on a character boundary.
+pub fn cut_name(name: &str) -> String {
+    let mut end = name.len().min(MAX_NAME_LEN);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    name[..end].to_string()
+}
