@@ -199,6 +199,19 @@ fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflecti
 /// four walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
 /// of which casts no shadow.
 pub fn room() -> SceneDesc {
+    let m = room_geometry();
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders: room_shaders(),
+        lights: room_lights(),
+        ..SceneDesc::default()
+    }
+}
+
+/// The room's triangles: shader 0 the floor, 1 the back and front walls, 2 the side walls, 3 the
+/// sphere, 4 the torus, 5 the mirror.
+fn room_geometry() -> MeshBuilder {
     let mut m = MeshBuilder::default();
     let mut rng = Rng::new(7);
     let (floor, wall, side, sphere, torus, mirror) = (0, 1, 2, 3, 4, 5);
@@ -259,7 +272,12 @@ pub fn room() -> SceneDesc {
         &mut rng,
     );
     m.torus(Vec3::new(26.0, 0.0, 7.0), 15.0, 6.0, 64, 24, torus);
-    let shaders = vec![
+    m
+}
+
+/// The room's shaders, in the order of [`room_geometry`]'s shader numbers.
+fn room_shaders() -> Vec<Shader> {
+    vec![
         shader(
             Vec3::splat(0.06),
             Vec3::new(0.55, 0.52, 0.48),
@@ -302,8 +320,12 @@ pub fn room() -> SceneDesc {
             60.0,
             0.85,
         ),
-    ];
-    let lights = vec![
+    ]
+}
+
+/// The room's two lights: a warm one that casts shadows, a cool fill light that does not.
+fn room_lights() -> Vec<Light> {
+    vec![
         Light {
             position: Vec3::new(-40.0, -40.0, 75.0),
             color: Vec3::new(1.0, 0.95, 0.85),
@@ -316,14 +338,7 @@ pub fn room() -> SceneDesc {
             amount: 0.35,
             casts_shadows: false,
         },
-    ];
-    SceneDesc {
-        points: m.points,
-        triangles: m.triangles,
-        shaders,
-        lights,
-        ..SceneDesc::default()
-    }
+    ]
 }
 
 /// A large scene of at least `min_triangles` triangles: a fractal-noise terrain under a ring of
@@ -340,6 +355,23 @@ pub fn large(min_triangles: u32) -> SceneDesc {
         let c = Vec3::new(60.0 * libm::cosf(a), 60.0 * libm::sinf(a) + 40.0, 22.0);
         m.sphere(c, 12.0, seg, seg / 2, 0.0, 1 + (k % 2), &mut rng);
     }
+    large_terrain(&mut m, min_triangles);
+    let shaders = large_shaders();
+    let lights = large_lights();
+    let camera = Camera::Seed(LARGE_CAMERA);
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders,
+        lights,
+        camera,
+        ..SceneDesc::default()
+    }
+}
+
+/// Adds the large scene's terrain (shader 0) to `m`: a square grid of fractal-noise heights with
+/// enough triangles to bring `m` to at least `min_triangles`.
+fn large_terrain(m: &mut MeshBuilder, min_triangles: u32) {
     let remaining = min_triangles.saturating_sub(m.triangles.len() as u32);
     let n = (((remaining as f32) / 2.0).sqrt().ceil() as u32).max(2);
     let size = 300.0;
@@ -378,7 +410,11 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             });
         }
     }
-    let shaders = vec![
+}
+
+/// The large scene's shaders: the terrain, then the two sphere colours.
+fn large_shaders() -> Vec<Shader> {
+    vec![
         shader(
             Vec3::splat(0.05),
             Vec3::new(0.45, 0.5, 0.35),
@@ -400,8 +436,12 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             40.0,
             0.0,
         ),
-    ];
-    let lights = vec![
+    ]
+}
+
+/// The large scene's lights: a white one that casts shadows, a blue fill light that does not.
+fn large_lights() -> Vec<Light> {
+    vec![
         Light {
             position: Vec3::new(-100.0, -150.0, 200.0),
             color: Vec3::ONE,
@@ -414,16 +454,7 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             amount: 0.3,
             casts_shadows: false,
         },
-    ];
-    let camera = Camera::Seed(LARGE_CAMERA);
-    SceneDesc {
-        points: m.points,
-        triangles: m.triangles,
-        shaders,
-        lights,
-        camera,
-        ..SceneDesc::default()
-    }
+    ]
 }
 
 /// The seed camera of the large scene: its [`SceneDesc`] and its configuration file share it.

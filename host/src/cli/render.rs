@@ -15,13 +15,13 @@ use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::executor::{start_workers, WorkerSources};
 use crate::formats::image::{check_output_path, write_image};
-use crate::formats::load::{load_scene, Overrides};
+use crate::formats::load::{load_scene, LoadedScene, Overrides};
 use crate::util::fs::write_atomically;
 use anyhow::anyhow;
 use clap::Args;
 use std::io::Write as _;
 use std::num::NonZeroUsize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use strahl_core::error::SceneError;
 use strahl_core::octree::OctreeParams;
@@ -333,13 +333,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     }
 
     let build_start = Instant::now();
-    let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {
-        let file = match e {
-            PrepareError::Scene(SceneError::BadImageSize) => &loaded.config_path,
-            _ => &loaded.data_path,
-        };
-        anyhow!("{}: {e}", file.display())
-    })?;
+    let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
     let scene = &prepared.scene;
     let settings = scene.settings;
@@ -350,17 +344,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             progress.println(&format!("warning: {msg}"));
         }
     };
-    if scene.degenerate_triangles > 0 {
-        warn(&format!(
-            "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
-            loaded.data_path.display(),
-            scene.degenerate_triangles,
-            scene.triangle_points.len() + scene.solids.mesh_triangle_count()
-        ));
-    }
-    if args.aa_threshold.is_some() && settings.samples < 2 {
-        warn("--aa-threshold has no effect at multisample 1: give -m 2 or more to supersample the pixels it flags");
-    }
+    warn_about_scene(args, &loaded, &prepared, &warn);
     let mut workers = start_workers(
         &args.cluster.sources(),
         args.worker_count(),
@@ -404,21 +388,61 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     if let Some(path) = &args.stats_json {
         let stats = RenderStats::new(&summary, settings.samples, scene.effects, &image.workers);
-        let json = serde_json::to_string_pretty(&stats)? + "\n";
-        let written = write_atomically(path, |w| {
-            w.write_all(json.as_bytes())
-                .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
-        });
-        if let Err(e) = written {
-            // All or nothing: no image without its statistics.
-            let _ = std::fs::remove_file(&loaded.output);
-            return Err(e);
-        }
+        write_stats(path, &stats, &loaded.output)?;
     }
     if !args.quiet {
         eprintln!("{summary}");
         eprintln!("effects: {}", scene.effects.describe());
         eprint!("{}", WorkerTable(&image.workers));
+    }
+    Ok(())
+}
+
+/// The scene prepared for rendering (checked, octree built); an error names the configuration
+/// file for a bad image size and the data file for anything else.
+fn prepare(loaded: &LoadedScene) -> anyhow::Result<PreparedScene> {
+    PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {
+        let file = match e {
+            PrepareError::Scene(SceneError::BadImageSize) => &loaded.config_path,
+            _ => &loaded.data_path,
+        };
+        anyhow!("{}: {e}", file.display())
+    })
+}
+
+/// Warns about what renders but is likely not meant: triangles that can never be hit, and an
+/// `--aa-threshold` with nothing to supersample.
+fn warn_about_scene(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    prepared: &PreparedScene,
+    warn: &dyn Fn(&str),
+) {
+    let scene = &prepared.scene;
+    if scene.degenerate_triangles > 0 {
+        warn(&format!(
+            "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
+            loaded.data_path.display(),
+            scene.degenerate_triangles,
+            scene.triangle_points.len() + scene.solids.mesh_triangle_count()
+        ));
+    }
+    if args.aa_threshold.is_some() && scene.settings.samples < 2 {
+        warn("--aa-threshold has no effect at multisample 1: give -m 2 or more to supersample the pixels it flags");
+    }
+}
+
+/// Writes the statistics as JSON to `path`; if that fails, removes the image at `image` too
+/// (all or nothing: no image without its statistics).
+fn write_stats(path: &Path, stats: &RenderStats, image: &Path) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(stats)? + "\n";
+    let written = write_atomically(path, |w| {
+        w.write_all(json.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
+    });
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(image);
+        return Err(e);
     }
     Ok(())
 }
