@@ -672,29 +672,7 @@ impl<'t> Parser<'t> {
                 "define" => stmts.push(self.define()?),
                 "for" => stmts.push(self.for_loop(ctx)?),
                 "if" => stmts.push(self.if_chain(ctx)?),
-                "options" | "camera" | "light" => {
-                    if !matches!(ctx, Ctx::Scene) {
-                        return Err(FartError::new(
-                            t.pos,
-                            format!(
-                                "`{word}` does not belong {}; lights, the camera and options are written at scene level",
-                                ctx.place()
-                            ),
-                        ));
-                    }
-                    self.bump();
-                    let keys = match word {
-                        "options" => OPTIONS_KEYS,
-                        "camera" => CAMERA_KEYS,
-                        _ => LIGHT_KEYS,
-                    };
-                    let block = self.settings(word, t.pos, keys)?;
-                    stmts.push(match word {
-                        "options" => Stmt::Options(block),
-                        "camera" => Stmt::Camera(block),
-                        _ => Stmt::Light(block),
-                    });
-                }
+                "options" | "camera" | "light" => stmts.push(self.scene_block(ctx, word, t.pos)?),
                 "sphere" | "plane" | "box" | "cyl" | "mesh" | "union" | "intersect"
                 | "subtract" => stmts.push(Stmt::Shape(self.shape()?)),
                 "translate" | "rotate" | "scale" | "material"
@@ -703,35 +681,67 @@ impl<'t> Parser<'t> {
                     self.bump();
                     items.push(self.shape_item(word, t.pos)?);
                 }
-                w if is_reserved(w) => {
-                    let hint = match w {
-                        "translate" | "rotate" | "scale" | "material" => {
-                            "; write it inside the shape it belongs to"
-                        }
-                        "else" => "; `else` follows the `}` of an `if`",
-                        _ => "",
-                    };
-                    return Err(FartError::new(
-                        t.pos,
-                        format!("`{w}` does not belong {}{hint}", ctx.place()),
-                    ));
-                }
+                w if is_reserved(w) => return Err(Self::misplaced(ctx, w, t.pos)),
                 w => {
                     if self.peek2().kind == TokenKind::LBrace {
                         stmts.push(Stmt::Shape(self.shape()?));
                     } else {
-                        return Err(FartError::new(
-                            t.pos,
-                            format!(
-                                "unknown keyword `{w}` {}; expected {} (a defined shape is used as `{w} {{ ... }}`)",
-                                ctx.place(),
-                                ctx.expected()
-                            ),
-                        ));
+                        return Err(Self::unknown(ctx, w, t.pos));
                     }
                 }
             }
         }
+    }
+
+    /// An `options`, `camera` or `light` block (`word`, at `pos`), which only the scene level
+    /// may hold.
+    fn scene_block(&mut self, ctx: &Ctx, word: &str, pos: Pos) -> Result<Stmt, FartError> {
+        if !matches!(ctx, Ctx::Scene) {
+            return Err(FartError::new(
+                pos,
+                format!(
+                    "`{word}` does not belong {}; lights, the camera and options are written at scene level",
+                    ctx.place()
+                ),
+            ));
+        }
+        self.bump();
+        let keys = match word {
+            "options" => OPTIONS_KEYS,
+            "camera" => CAMERA_KEYS,
+            _ => LIGHT_KEYS,
+        };
+        let block = self.settings(word, pos, keys)?;
+        Ok(match word {
+            "options" => Stmt::Options(block),
+            "camera" => Stmt::Camera(block),
+            _ => Stmt::Light(block),
+        })
+    }
+
+    /// The error for the reserved word `w` at `pos` where `ctx` does not take it.
+    fn misplaced(ctx: &Ctx, w: &str, pos: Pos) -> FartError {
+        let hint = match w {
+            "translate" | "rotate" | "scale" | "material" => {
+                "; write it inside the shape it belongs to"
+            }
+            "else" => "; `else` follows the `}` of an `if`",
+            _ => "",
+        };
+        FartError::new(pos, format!("`{w}` does not belong {}{hint}", ctx.place()))
+    }
+
+    /// The error for the unknown word `w` at `pos`, not followed by a `{` that would make it a
+    /// use of a defined shape.
+    fn unknown(ctx: &Ctx, w: &str, pos: Pos) -> FartError {
+        FartError::new(
+            pos,
+            format!(
+                "unknown keyword `{w}` {}; expected {} (a defined shape is used as `{w} {{ ... }}`)",
+                ctx.place(),
+                ctx.expected()
+            ),
+        )
     }
 
     fn let_stmt(&mut self) -> Result<Stmt, FartError> {
