@@ -17,7 +17,7 @@
 //! triangles, CSG nesting up to [`MAX_CSG_DEPTH`].
 
 use super::parser::{
-    BinaryOp, Definable, Expr, ExprKind, ForLoop, IfChain, MaterialAst, SceneAst, Setting,
+    BinaryOp, Definable, Expr, ExprKind, ForLoop, IfChain, MaterialAst, Name, SceneAst, Setting,
     SettingValue, SettingsBlock, ShapeAst, ShapeItem, ShapeItemKind, ShapeKind, Stmt,
     TransformKind, UnaryOp, FUNCTIONS,
 };
@@ -824,26 +824,7 @@ impl Expander {
 
     fn material(&self, m: &MaterialAst) -> Res<Shader> {
         let b = match m {
-            MaterialAst::Named(name) => {
-                return match self.lookup(&name.text) {
-                    Some(Value::Material(sh)) => Ok(*sh),
-                    Some(other) => err(
-                        name.pos,
-                        format!(
-                            "expected a material after `material`, found `{}`, which is {}",
-                            name.text,
-                            other.describe()
-                        ),
-                    ),
-                    None => err(
-                        name.pos,
-                        format!(
-                            "expected a material after `material`, found `{}`, which is not defined (write `define {} material {{ ... }}` before it)",
-                            name.text, name.text
-                        ),
-                    ),
-                }
-            }
+            MaterialAst::Named(name) => return self.named_material(name),
             MaterialAst::Block(b) => b,
         };
         let k = Keyed::new(b, "material")?;
@@ -883,7 +864,43 @@ impl Expander {
                 ),
             );
         }
-        let ior = match k.get("ior") {
+        let ior = self.ior_setting(&k)?;
+        Ok(Shader {
+            ambient: color * ambient,
+            diffuse: color * diffuse,
+            specular: Vec3::splat(specular),
+            shininess,
+            reflection,
+            transparency,
+            ior,
+        })
+    }
+
+    /// The material defined as `name`.
+    fn named_material(&self, name: &Name) -> Res<Shader> {
+        match self.lookup(&name.text) {
+            Some(Value::Material(sh)) => Ok(*sh),
+            Some(other) => err(
+                name.pos,
+                format!(
+                    "expected a material after `material`, found `{}`, which is {}",
+                    name.text,
+                    other.describe()
+                ),
+            ),
+            None => err(
+                name.pos,
+                format!(
+                    "expected a material after `material`, found `{}`, which is not defined (write `define {} material {{ ... }}` before it)",
+                    name.text, name.text
+                ),
+            ),
+        }
+    }
+
+    /// A material's `ior` (1 when not given): a positive number.
+    fn ior_setting(&self, k: &Keyed<'_>) -> Res<f32> {
+        match k.get("ior") {
             Some(s) => {
                 let (v, pos) = self.num_setting(s, "a positive number")?;
                 if v <= 0.0 {
@@ -895,19 +912,10 @@ impl Expander {
                         ),
                     );
                 }
-                f32_of(v, pos)?
+                f32_of(v, pos)
             }
-            None => 1.0,
-        };
-        Ok(Shader {
-            ambient: color * ambient,
-            diffuse: color * diffuse,
-            specular: Vec3::splat(specular),
-            shininess,
-            reflection,
-            transparency,
-            ior,
-        })
+            None => Ok(1.0),
+        }
     }
 
     fn shader_id(&mut self, sh: Shader) -> u32 {
