@@ -1325,37 +1325,7 @@ impl<'t> Parser<'t> {
                 if self.peek().kind != TokenKind::LParen {
                     return Ok(leaf(ExprKind::Var(name.clone())));
                 }
-                let open = self.bump().pos;
-                self.enter(open)?;
-                let mut args = Vec::new();
-                if self.peek().kind == TokenKind::RParen {
-                    self.bump();
-                } else {
-                    loop {
-                        args.push(self.expr_expecting(&format!("an argument of `{name}`"))?);
-                        let sep = self.bump();
-                        match sep.kind {
-                            TokenKind::Comma => {}
-                            TokenKind::RParen => break,
-                            _ => {
-                                return Err(FartError::new(
-                                    sep.pos,
-                                    format!(
-                                    "expected `,` or `)` after an argument of `{name}`, found {}",
-                                    sep.kind.describe()
-                                ),
-                                ))
-                            }
-                        }
-                    }
-                }
-                self.leave();
-                let height = 1 + args.iter().map(|a| a.height).max().unwrap_or(0);
-                Ok(Expr {
-                    pos: t.pos,
-                    kind: ExprKind::Call(name.clone(), args),
-                    height,
-                })
+                self.call(name, t.pos)
             }
             TokenKind::LParen => {
                 self.enter(t.pos)?;
@@ -1397,6 +1367,42 @@ impl<'t> Parser<'t> {
                 format!("expected a number or a vector, found {}", other.describe()),
             )),
         }
+    }
+
+    /// A call of the function `name` written at `pos`, after its name: the arguments in
+    /// parentheses.
+    fn call(&mut self, name: &str, pos: Pos) -> Result<Expr, FartError> {
+        let open = self.bump().pos;
+        self.enter(open)?;
+        let mut args = Vec::new();
+        if self.peek().kind == TokenKind::RParen {
+            self.bump();
+        } else {
+            loop {
+                args.push(self.expr_expecting(&format!("an argument of `{name}`"))?);
+                let sep = self.bump();
+                match sep.kind {
+                    TokenKind::Comma => {}
+                    TokenKind::RParen => break,
+                    _ => {
+                        return Err(FartError::new(
+                            sep.pos,
+                            format!(
+                                "expected `,` or `)` after an argument of `{name}`, found {}",
+                                sep.kind.describe()
+                            ),
+                        ))
+                    }
+                }
+            }
+        }
+        self.leave();
+        let height = 1 + args.iter().map(|a| a.height).max().unwrap_or(0);
+        Ok(Expr {
+            pos,
+            kind: ExprKind::Call(name.to_string(), args),
+            height,
+        })
     }
 
     fn vector_sep(&mut self, open: Pos, sep: &str, next: &str) -> Result<(), FartError> {
