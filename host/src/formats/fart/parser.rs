@@ -1114,33 +1114,7 @@ impl<'t> Parser<'t> {
                     }
                 }
             }
-            "vertices" | "triangles" => {
-                let open = self.expect_open(word)?;
-                let mut list = Vec::new();
-                loop {
-                    let t = self.peek();
-                    match t.kind {
-                        TokenKind::RBrace => {
-                            self.bump();
-                            break;
-                        }
-                        TokenKind::Eof => return Err(Self::unclosed(word, open, t)),
-                        _ => {
-                            let what = if word == "vertices" {
-                                "a vector `<x, y, z>` or `}` in `vertices`"
-                            } else {
-                                "three point indices `<i, j, k>` or `}` in `triangles`"
-                            };
-                            list.push(self.expr_with(what, true)?);
-                        }
-                    }
-                }
-                if word == "vertices" {
-                    ShapeItemKind::Vertices(list)
-                } else {
-                    ShapeItemKind::Triangles(list)
-                }
-            }
+            "vertices" | "triangles" => self.mesh_list(word)?,
             other => {
                 return Err(FartError::new(
                     pos,
@@ -1149,6 +1123,35 @@ impl<'t> Parser<'t> {
             }
         };
         Ok(ShapeItem { pos, item })
+    }
+
+    /// The `{ ... }` list after `vertices` or `triangles` (`word`).
+    fn mesh_list(&mut self, word: &str) -> Result<ShapeItemKind, FartError> {
+        let open = self.expect_open(word)?;
+        let mut list = Vec::new();
+        loop {
+            let t = self.peek();
+            match t.kind {
+                TokenKind::RBrace => {
+                    self.bump();
+                    break;
+                }
+                TokenKind::Eof => return Err(Self::unclosed(word, open, t)),
+                _ => {
+                    let what = if word == "vertices" {
+                        "a vector `<x, y, z>` or `}` in `vertices`"
+                    } else {
+                        "three point indices `<i, j, k>` or `}` in `triangles`"
+                    };
+                    list.push(self.expr_with(what, true)?);
+                }
+            }
+        }
+        Ok(if word == "vertices" {
+            ShapeItemKind::Vertices(list)
+        } else {
+            ShapeItemKind::Triangles(list)
+        })
     }
 
     // ---- expressions ----
