@@ -24,15 +24,15 @@ use std::time::Duration;
 /// start.
 #[derive(Clone, Debug, Default)]
 pub struct WorkerSources {
-    /// TCP workers listening at HOST[:PORT].
+    /// TCP workers listening at `HOST[:PORT]`.
     pub worker: Vec<String>,
     /// A hosts file: the workers to dial, or with `launch` the hosts to start workers on.
     pub hosts: Option<PathBuf>,
-    /// Where to accept workers that dial in, HOST[:PORT].
+    /// Where to accept workers that dial in, `HOST[:PORT]`.
     pub listen: Option<String>,
     /// The shell command that starts one worker per hosts-file line.
     pub launch: Option<String>,
-    /// Serial workers at PATH[:BAUD].
+    /// Serial workers at `PATH[:BAUD]`.
     pub serial: Vec<String>,
 }
 

@@ -8,7 +8,7 @@
 //! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene, test meshes) |
 //! | cluster | [`cluster`] (master, scheduler, links, local and simulated workers), [`executor`] (which workers a render uses, and starting them) | rendering through workers |
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary` | the `strahl` command line and what it prints |
-//! | benchmarks | [`bench`], [`bench_scaling`], [`bench_accuracy`] | `strahl bench` and its studies |
+//! | benchmarks | [`bench`](mod@bench), [`bench_scaling`], [`bench_accuracy`] | `strahl bench` and its studies |
 //! | base | [`util`]: `sys` (host name, shared timeouts), `fs` (atomic writes), `units` | used by all, uses none |
 //!
 //! Dependencies point one way, from the interface down to the base:
@@ -26,7 +26,7 @@
 //!   (`WorkerSources`, `MasterOptions`), never clap types.
 //! - the benchmarks use `cluster`, `formats`, `generate` and `util`.
 //! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`,
-//!   except the benchmarks' own (still in [`bench`] and [`bench_accuracy`], owned elsewhere, and
+//!   except the benchmarks' own (still in [`bench`](mod@bench) and [`bench_accuracy`], owned elsewhere, and
 //!   reached only through [`cli::bench`]).
 //!
 //! Folders of one crate, not crates of their own: the groups share one version, one build and

@@ -2,7 +2,7 @@
 //! render shows the user while and after it runs.
 //!
 //! Each subcommand is one variant of [`Command`] holding its own argument struct (a clap type);
-//! its module ([`render`], [`worker`], [`convert`], [`generate`], [`bench`]) holds that struct
+//! its module ([`render`], [`worker`], [`convert`], [`generate`], [`bench`](mod@bench)) holds that struct
 //! and a `run` function that turns the arguments into plain values and calls the group that does
 //! the work: [`crate::formats`] and [`crate::cluster`] for `render`, [`crate::formats`] for
 //! `convert`, [`crate::generate`] for `generate`, the benchmark modules for `bench`, and the

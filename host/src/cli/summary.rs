@@ -1,4 +1,7 @@
 //! The one line a render prints at the end: size, times, scene and octree, rays, output.
+//!
+//! [`RenderSummary`] is that line (its `Display`); [`RenderStats`] is the same render, with the
+//! per-worker reports of [`crate::cluster::report`], as the JSON `--stats-json` writes.
 
 use crate::util::units::format_ray_rate;
 use std::fmt;

@@ -4,6 +4,13 @@
 //! same scene again (or the next master with it) skips the transfer. A listening or serial
 //! worker outlives its masters: when one ends its session or disappears, it waits for the next.
 //! A dialling worker serves one render and exits, which suits launchers and batch schedulers.
+//!
+//! This module is argument handling: [`WorkerArgs`] become a [`NodeInfo`] (name, architecture,
+//! memory) and a choice of transport, and [`run`] hands them to the serving loops of
+//! `strahl_tcp` and `strahl_serial`, which run `strahl_core`'s worker protocol; it only turns
+//! each session's outcome into a line on stderr. So it lives with the command line, not with the
+//! master's side in [`crate::cluster`]. The host name it defaults to comes from
+//! [`crate::util::sys`], shared with the master.
 
 use crate::util::sys::{cut_name, host_name};
 use anyhow::{anyhow, Context as _};
