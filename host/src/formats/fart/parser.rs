@@ -1200,73 +1200,65 @@ impl<'t> Parser<'t> {
     }
 
     fn or_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.and_expr(nc)?;
-        while self.peek().kind == TokenKind::OrOr {
-            let op = self.bump().pos;
-            let b = self.operand("||", nc, Self::and_expr)?;
-            a = Self::binary(BinaryOp::Or, op, a, b)?;
-        }
-        Ok(a)
+        self.left_assoc(nc, Self::and_expr, |k| {
+            (*k == TokenKind::OrOr).then_some(BinaryOp::Or)
+        })
     }
 
     fn and_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.cmp_expr(nc)?;
-        while self.peek().kind == TokenKind::AndAnd {
-            let op = self.bump().pos;
-            let b = self.operand("&&", nc, Self::cmp_expr)?;
-            a = Self::binary(BinaryOp::And, op, a, b)?;
-        }
-        Ok(a)
+        self.left_assoc(nc, Self::cmp_expr, |k| {
+            (*k == TokenKind::AndAnd).then_some(BinaryOp::And)
+        })
     }
 
+    /// Comparisons, unless `nc` (inside `< >`, where `<` and `>` close the vector).
     fn cmp_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.add_expr(nc)?;
         if nc {
-            return Ok(a);
+            return self.add_expr(nc);
         }
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Less => BinaryOp::Lt,
-                TokenKind::LessEq => BinaryOp::Le,
-                TokenKind::Greater => BinaryOp::Gt,
-                TokenKind::GreaterEq => BinaryOp::Ge,
-                TokenKind::EqEq => BinaryOp::Eq,
-                TokenKind::NotEq => BinaryOp::Ne,
-                _ => return Ok(a),
-            };
-            let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::add_expr)?;
-            a = Self::binary(op, pos, a, b)?;
-        }
+        self.left_assoc(nc, Self::add_expr, |k| match k {
+            TokenKind::Less => Some(BinaryOp::Lt),
+            TokenKind::LessEq => Some(BinaryOp::Le),
+            TokenKind::Greater => Some(BinaryOp::Gt),
+            TokenKind::GreaterEq => Some(BinaryOp::Ge),
+            TokenKind::EqEq => Some(BinaryOp::Eq),
+            TokenKind::NotEq => Some(BinaryOp::Ne),
+            _ => None,
+        })
     }
 
     fn add_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.mul_expr(nc)?;
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Plus => BinaryOp::Add,
-                TokenKind::Minus => BinaryOp::Sub,
-                _ => return Ok(a),
-            };
-            let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::mul_expr)?;
-            a = Self::binary(op, pos, a, b)?;
-        }
+        self.left_assoc(nc, Self::mul_expr, |k| match k {
+            TokenKind::Plus => Some(BinaryOp::Add),
+            TokenKind::Minus => Some(BinaryOp::Sub),
+            _ => None,
+        })
     }
 
     fn mul_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.unary(nc)?;
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Star => BinaryOp::Mul,
-                TokenKind::Slash => BinaryOp::Div,
-                TokenKind::Percent => BinaryOp::Rem,
-                _ => return Ok(a),
-            };
+        self.left_assoc(nc, Self::unary, |k| match k {
+            TokenKind::Star => Some(BinaryOp::Mul),
+            TokenKind::Slash => Some(BinaryOp::Div),
+            TokenKind::Percent => Some(BinaryOp::Rem),
+            _ => None,
+        })
+    }
+
+    /// One level of left-associative operators: operands parsed by `next`, joined by the
+    /// operators `op` picks from the next token, as long as it picks one.
+    fn left_assoc(
+        &mut self,
+        nc: bool,
+        next: fn(&mut Self, bool) -> Result<Expr, FartError>,
+        op: fn(&TokenKind) -> Option<BinaryOp>,
+    ) -> Result<Expr, FartError> {
+        let mut a = next(self, nc)?;
+        while let Some(op) = op(&self.peek().kind) {
             let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::unary)?;
+            let b = self.operand(op.symbol(), nc, next)?;
             a = Self::binary(op, pos, a, b)?;
         }
+        Ok(a)
     }
 
     /// The right operand of `symbol`, parsed by `next`.
