@@ -576,6 +576,19 @@ impl<'t> Parser<'t> {
         t
     }
 
+    /// Takes the next token if it is `kind`; otherwise the error `expected WHAT, found ...` at
+    /// it, WHAT from `what` (made only then).
+    fn expect(&mut self, kind: &TokenKind, what: impl FnOnce() -> String) -> Result<(), FartError> {
+        let t = self.bump();
+        if t.kind != *kind {
+            return Err(FartError::new(
+                t.pos,
+                format!("expected {}, found {}", what(), t.kind.describe()),
+            ));
+        }
+        Ok(())
+    }
+
     fn enter(&mut self, pos: Pos) -> Result<(), FartError> {
         self.depth += 1;
         if self.depth > MAX_NESTING {
@@ -747,17 +760,9 @@ impl<'t> Parser<'t> {
     fn let_stmt(&mut self) -> Result<Stmt, FartError> {
         self.bump();
         let name = self.new_name("let")?;
-        let t = self.bump();
-        if t.kind != TokenKind::Assign {
-            return Err(FartError::new(
-                t.pos,
-                format!(
-                    "expected `=` after `let {}`, found {}",
-                    name.text,
-                    t.kind.describe()
-                ),
-            ));
-        }
+        self.expect(&TokenKind::Assign, || {
+            format!("`=` after `let {}`", name.text)
+        })?;
         let what = format!("a number or a vector after `let {} =`", name.text);
         let value = self.expr_expecting(&what)?;
         Ok(Stmt::Let { name, value })
@@ -792,29 +797,13 @@ impl<'t> Parser<'t> {
     fn for_loop(&mut self, ctx: &Ctx) -> Result<Stmt, FartError> {
         let pos = self.bump().pos;
         let var = self.new_name("for")?;
-        let t = self.bump();
-        if t.kind != TokenKind::Ident("in".to_string()) {
-            return Err(FartError::new(
-                t.pos,
-                format!(
-                    "expected `in` after `for {}`, found {}",
-                    var.text,
-                    t.kind.describe()
-                ),
-            ));
-        }
+        self.expect(&TokenKind::Ident("in".to_string()), || {
+            format!("`in` after `for {}`", var.text)
+        })?;
         let start = self.expr_expecting("the first number of the range after `in`")?;
-        let t = self.bump();
-        if t.kind != TokenKind::DotDot {
-            return Err(FartError::new(
-                t.pos,
-                format!(
-                    "expected `..` in the range of `for {}`, found {}",
-                    var.text,
-                    t.kind.describe()
-                ),
-            ));
-        }
+        self.expect(&TokenKind::DotDot, || {
+            format!("`..` in the range of `for {}`", var.text)
+        })?;
         let end = self.expr_expecting("the end of the range after `..`")?;
         let step = if self.peek().kind == TokenKind::Ident("step".to_string()) {
             self.bump();
@@ -822,18 +811,9 @@ impl<'t> Parser<'t> {
         } else {
             None
         };
-        let open = self.peek();
-        if open.kind != TokenKind::LBrace {
-            return Err(FartError::new(
-                open.pos,
-                format!(
-                    "expected `{{` or `step` after the range of `for {}`, found {}",
-                    var.text,
-                    open.kind.describe()
-                ),
-            ));
-        }
-        self.bump();
+        self.expect(&TokenKind::LBrace, || {
+            format!("`{{` or `step` after the range of `for {}`", var.text)
+        })?;
         let (body, _, _) = self.statements(&ctx.inner(), "for", pos)?;
         Ok(Stmt::For(ForLoop {
             pos,
@@ -851,17 +831,9 @@ impl<'t> Parser<'t> {
         let mut pos = self.bump().pos;
         loop {
             let cond = self.expr_expecting("a condition after `if`")?;
-            let open = self.peek();
-            if open.kind != TokenKind::LBrace {
-                return Err(FartError::new(
-                    open.pos,
-                    format!(
-                        "expected `{{` after the condition of `if`, found {}",
-                        open.kind.describe()
-                    ),
-                ));
-            }
-            self.bump();
+            self.expect(&TokenKind::LBrace, || {
+                "`{` after the condition of `if`".to_string()
+            })?;
             let (body, _, _) = self.statements(&ctx.inner(), "if", pos)?;
             branches.push((cond, body));
             if self.peek().kind != TokenKind::Ident("else".to_string()) {
@@ -1073,16 +1045,9 @@ impl<'t> Parser<'t> {
             "size" => ShapeItemKind::Size(self.expr_expecting("a vector after `size`")?),
             "position" => {
                 let normal = self.expr_expecting("the plane's normal vector after `position`")?;
-                let t = self.bump();
-                if t.kind != TokenKind::Comma {
-                    return Err(FartError::new(
-                        t.pos,
-                        format!(
-                            "expected `,` and the plane's distance after its normal, found {}",
-                            t.kind.describe()
-                        ),
-                    ));
-                }
+                self.expect(&TokenKind::Comma, || {
+                    "`,` and the plane's distance after its normal".to_string()
+                })?;
                 let d = self.expr_expecting("the plane's distance after `,`")?;
                 ShapeItemKind::PlanePosition { normal, d }
             }
@@ -1325,18 +1290,9 @@ impl<'t> Parser<'t> {
             TokenKind::LParen => {
                 self.enter(t.pos)?;
                 let mut inner = self.expr_expecting("an expression after `(`")?;
-                let close = self.bump();
-                if close.kind != TokenKind::RParen {
-                    return Err(FartError::new(
-                        close.pos,
-                        format!(
-                            "expected `)` to close the `(` at {}:{}, found {}",
-                            t.pos.line,
-                            t.pos.column,
-                            close.kind.describe()
-                        ),
-                    ));
-                }
+                self.expect(&TokenKind::RParen, || {
+                    format!("`)` to close the `(` at {}:{}", t.pos.line, t.pos.column)
+                })?;
                 self.leave();
                 inner.pos = t.pos;
                 Ok(inner)
