@@ -20,7 +20,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 /// The workers outside this process a render uses, as the user named them (the command line's
-/// `ClusterArgs` in [`crate::cli::render`] gives one); the specs are checked when the workers
+/// `ClusterArgs` of `strahl render` gives one); the specs are checked when the workers
 /// start.
 #[derive(Clone, Debug, Default)]
 pub struct WorkerSources {

@@ -3,8 +3,9 @@
 //! Everything here is deterministic (a fixed xorshift generator, no clock), so a generated file is
 //! the same on every machine. The generated scenes reach users as files in the seed's formats,
 //! written by [`crate::formats::datafile::write_data_file`] and, for the large scene's
-//! [`large_config`], [`crate::formats::config::write_config`]: `strahl generate room|large`
-//! ([`crate::cli::generate`]). Benchmarks and the tests crate use the scenes directly.
+//! [`large_config`], [`crate::formats::config::write_config`], when `strahl generate room|large`
+//! runs (the command line's `generate` module). Benchmarks and the tests crate use the scenes
+//! directly.
 
 use crate::formats::config::Config;
 use crate::formats::datafile::write_data_file;

@@ -30,8 +30,9 @@
 //!   reached only through [`cli::bench`]).
 //!
 //! Folders of one crate, not crates of their own: the groups share one version, one build and
-//! one test run, and the direction above is kept by review and by this map, not by the compiler
-//! (`grep -rn 'crate::cli' host/src/formats host/src/cluster` must find nothing). Making
+//! one test run, and the direction above is kept not by the compiler but by a test,
+//! `host/tests/layering.rs`, which fails when `util`, `formats`, `generate` or the cluster names
+//! a group above it (or the cluster names clap). Making
 //! `formats` a crate (`strahl-formats`, without clap, indicatif or image, for users who want only
 //! the parsers) is the next step and a mechanical one, since it already uses nothing above it;
 //! it was not done in this change for want of time, and `image` would first move out of it.

@@ -1257,7 +1257,7 @@ fn degenerate_triangles_never_hit_and_are_reported() {
     let scene = build(&loaded.desc);
     assert_eq!(scene.degenerate_triangles, 3);
     assert_eq!(scene.octree.stats().filed_triangles, 1);
-    // The host warns about them when it renders (`cli::run_render`: "N of M triangles have zero
+    // The host warns about them when it renders (`cli::render::run`: "N of M triangles have zero
     // area ... and are never hit"); that path writes to the terminal and is not checked here.
 }
 
