@@ -1037,7 +1037,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     );
     let picture = svg(&panels);
     for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
-        crate::util::fs::write_atomically(path, |w| {
+        crate::formats::fs::write_atomically(path, |w| {
             w.write_all(text.as_bytes())
                 .with_context(|| format!("{}: cannot write", path.display()))
         })?;

@@ -6,8 +6,8 @@
 
 use crate::formats::config::write_config;
 use crate::formats::datafile::write_data_file;
+use crate::formats::fs::write_text_atomically;
 use crate::generate::{large, large_config, room_data_file};
-use crate::util::fs::write_text_atomically;
 
 /// Which scene `strahl generate` writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

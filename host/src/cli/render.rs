@@ -2,7 +2,7 @@
 //! [`ClusterArgs`]) and its run: load the scene ([`crate::formats::load`]), check the outputs,
 //! prepare the scene and start the workers ([`crate::cluster`], [`crate::executor`]), render
 //! through the master while [`super::progress`] draws, write the image
-//! ([`crate::formats::image`]) and the statistics, and print [`super::summary`].
+//! ([`crate::output`]) and the statistics, and print [`super::summary`].
 //!
 //! The clap types stay here: the executor takes a plain [`WorkerSources`] and the master plain
 //! [`MasterOptions`], both made from the arguments by [`ClusterArgs::sources`] and
@@ -14,9 +14,9 @@ use crate::cluster::master::{run_master, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::executor::{start_workers, WorkerSources};
-use crate::formats::image::{check_output_path, write_image};
+use crate::formats::fs::write_atomically;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
-use crate::util::fs::write_atomically;
+use crate::output::{check_output_path, write_image};
 use anyhow::anyhow;
 use clap::Args;
 use std::io::Write as _;

@@ -1,5 +1,6 @@
-//! The file formats: every scene, mesh and hosts file the host reads, and every file it writes
-//! in those formats, each format's reader and writer side by side in one module.
+//! Strahl's file formats (`strahl-formats`): every scene, mesh and hosts file the host reads,
+//! and every file it writes in those formats, each format's reader and writer side by side in
+//! one module. `strahl-host` re-exports this crate as `strahl_host::formats`.
 //!
 //! | module | format | reads | writes |
 //! |---|---|---|---|
@@ -13,20 +14,21 @@
 //! | [`hosts`] | FART's hosts file | [`hosts::read_hosts_file`] | |
 //! | [`load`] | a whole scene, the reader picked by extension, with the command line's overrides | [`load::load_scene`] | |
 //! | [`convert`] | OBJ to the seed's data file and `raytracer.cfg` (through the writers above) | | [`convert::convert_obj`] |
-//! | [`image`] | BMP and PNG images | | [`image::write_image`] |
+//! | [`fs`] | any file, written whole or not at all | | [`fs::write_atomically`] |
 //!
 //! Every reader reports a [`error::LoadError`] that names the file and, where there is one, the
-//! line (and column). The group uses [`crate::util`] and `strahl_core` only: nothing of the
-//! command line, the cluster or the benchmarks, so its parsers can become a crate of their own
-//! (see the crate doc).
+//! line (and column). The crate depends on `strahl-core`, `glam`, `thiserror`, `anyhow` (the
+//! writers' errors), `tempfile` (atomic writes) and `strahl-tcp` (the hosts file's default
+//! port): no clap, indicatif or image, so a user of the parsers pulls in no command line. Images
+//! are written by `strahl-host`'s `output` module.
 
 pub mod config;
 pub mod convert;
 pub mod datafile;
 pub mod error;
 pub mod fart;
+pub mod fs;
 pub mod hosts;
-pub mod image;
 pub mod lines;
 pub mod load;
 pub mod mesh;

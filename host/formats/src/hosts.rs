@@ -3,8 +3,8 @@
 //! `#` starts a comment (to the end of the line); blank lines are skipped; surrounding spaces
 //! are ignored. A host without a port gets [`strahl_tcp::DEFAULT_PORT`]. Errors name the line.
 
-use crate::formats::error::LoadError;
-use crate::formats::lines::read_text;
+use crate::error::LoadError;
+use crate::lines::read_text;
 use std::path::Path;
 
 /// One host of a hosts file.

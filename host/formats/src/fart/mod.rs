@@ -19,7 +19,7 @@ pub mod expand;
 pub mod lexer;
 pub mod parser;
 
-use crate::formats::error::LoadError;
+use crate::error::LoadError;
 use std::path::Path;
 use strahl_core::scene::SceneDesc;
 

@@ -3,8 +3,8 @@
 //! [`Config`]. `strahl convert` and `strahl generate large` write through [`write_config`], so the
 //! file they write is the file this module reads.
 
-use crate::formats::error::LoadError;
-use crate::formats::lines::{lines, read_text, Line};
+use crate::error::LoadError;
+use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -13,7 +13,7 @@ use strahl_core::scene::MAX_IMAGE_SIDE;
 
 /// Everything a configuration file sets, with the documented defaults for what it leaves out.
 ///
-/// Paths are kept as written; [`crate::formats::load`] resolves them against the configuration file's
+/// Paths are kept as written; [`crate::load`] resolves them against the configuration file's
 /// folder.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Config {

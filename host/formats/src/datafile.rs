@@ -6,8 +6,8 @@
 //! `strahl generate` and `strahl convert` write through it, so what they write is what this
 //! module reads.
 
-use crate::formats::error::LoadError;
-use crate::formats::lines::{lines, read_text, Line};
+use crate::error::LoadError;
+use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;

@@ -1,13 +1,13 @@
 //! Loading a whole scene, whatever file it comes from, with the command line's overrides.
 //!
 //! [`load_scene`] picks the reader by the file's extension: `.fart` (FART's scene language,
-//! [`crate::formats::fart`]), `.nff` (Eric Haines' Neutral File Format, [`crate::formats::nff`]), and anything else
+//! [`crate::fart`]), `.nff` (Eric Haines' Neutral File Format, [`crate::nff`]), and anything else
 //! is the seed's configuration file with the data file it names ([`load_config_scene`]). Then
 //! [`apply_overrides`] lets the command line beat the file, as FART's rule says.
 
-use crate::formats::config::read_config;
-use crate::formats::datafile::read_data;
-use crate::formats::error::LoadError;
+use crate::config::read_config;
+use crate::datafile::read_data;
+use crate::error::LoadError;
 use std::path::{Path, PathBuf};
 use strahl_core::camera::Camera;
 use strahl_core::scene::{
@@ -187,8 +187,8 @@ impl SceneFormat {
 pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, LoadError> {
     let mut desc = match SceneFormat::of(path) {
         SceneFormat::SeedConfig => return load_config_scene(path, overrides),
-        SceneFormat::Fart => crate::formats::fart::load_fart(path)?,
-        SceneFormat::Nff => crate::formats::nff::load_nff(path)?,
+        SceneFormat::Fart => crate::fart::load_fart(path)?,
+        SceneFormat::Nff => crate::nff::load_nff(path)?,
     };
     let file_error = |message: String| LoadError::File {
         path: path.to_path_buf(),

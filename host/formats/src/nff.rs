@@ -22,8 +22,8 @@
 //! Every error is `path:line: what is wrong, what was expected` ([`LoadError::At`]), or
 //! `path: what is wrong` for a problem of the whole file (no `v` block, no light).
 
-use crate::formats::error::LoadError;
-use crate::formats::lines::read_text;
+use crate::error::LoadError;
+use crate::lines::read_text;
 use glam::{Mat3, Quat, Vec3};
 use std::fmt;
 use std::path::Path;

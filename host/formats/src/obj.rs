@@ -28,7 +28,7 @@
 //! wrong, and panics on an `.mtl` colour with fewer than three values (`Kd 0.5`). The format is
 //! small enough to read here with exact messages.
 
-use crate::formats::error::LoadError;
+use crate::error::LoadError;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};

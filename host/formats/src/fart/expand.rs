@@ -22,9 +22,9 @@ use super::parser::{
     TransformKind, UnaryOp, FUNCTIONS,
 };
 use super::{FartError, Pos};
-use crate::formats::error::LoadError;
-use crate::formats::mesh::append_mesh;
-use crate::formats::obj::{read_obj, ObjMesh, ObjTriangle};
+use crate::error::LoadError;
+use crate::mesh::append_mesh;
+use crate::obj::{read_obj, ObjMesh, ObjTriangle};
 use glam::Vec3;
 use std::collections::HashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};

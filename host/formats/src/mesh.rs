@@ -6,7 +6,7 @@
 //! non-uniform scale. Every triangle gets the given shader; its indices are shifted past what the
 //! scene held before.
 
-use crate::formats::obj::ObjMesh;
+use crate::obj::ObjMesh;
 use strahl_core::scene::{SceneDesc, TriangleDesc};
 use strahl_core::transform::{Placement, Transform};
 

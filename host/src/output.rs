@@ -1,5 +1,5 @@
 //! Image files: 24-bit uncompressed BMP or PNG, written atomically (through
-//! [`crate::util::fs::write_atomically`]).
+//! [`crate::formats::fs::write_atomically`]).
 //!
 //! The format follows the file name's extension, case-insensitively: `.bmp` gives a BMP, `.png` a
 //! PNG, and anything else is an error. [`check_output_path`] checks the name and the destination
@@ -7,7 +7,7 @@
 //! temporary file in the destination folder and renames it over the destination only when the
 //! image is complete, so a failed run never leaves a partial or empty image behind.
 
-use crate::util::fs::{destination_folder, write_atomically};
+use crate::formats::fs::{destination_folder, write_atomically};
 use anyhow::{bail, Context as _};
 use std::path::Path;
 use strahl_core::pixel::Pixel;

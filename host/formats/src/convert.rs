@@ -1,12 +1,12 @@
 //! `strahl convert`: an OBJ mesh to the seed's data format, with a configuration file to render it.
 //!
-//! [`convert_obj`] reads an OBJ file and its materials ([`crate::formats::obj::read_obj_file`]) and writes
+//! [`convert_obj`] reads an OBJ file and its materials ([`crate::obj::read_obj_file`]) and writes
 //! two files:
 //!
 //! - the **data file** (the output name given): `_SHD`, `_LIGHT`, `_PT` and `_TR` records as
 //!   `scenes/FORMATS.md` section 3 describes them (0-based indices), written by
-//!   [`crate::formats::datafile::write_data_file`];
-//! - a **`raytracer.cfg`** in the same folder, written by [`crate::formats::config::write_config`], (replacing one that is there) whose `$INPUT_DATA`
+//!   [`crate::datafile::write_data_file`];
+//! - a **`raytracer.cfg`** in the same folder, written by [`crate::config::write_config`], (replacing one that is there) whose `$INPUT_DATA`
 //!   names the data file and whose seed camera frames the mesh: it stands in front of the model
 //!   (on the −Y side), tilted 15° down, with zoom 1.5, far enough that the mesh's bounding sphere
 //!   fits the 640 × 480 image.
@@ -26,10 +26,10 @@
 //!
 //! Both files are written atomically (a temporary file in the same folder, renamed into place).
 
-use crate::formats::config::{write_config, Config};
-use crate::formats::datafile::write_data_file;
-use crate::formats::obj::{read_obj_file, ObjFile, ObjMaterial};
-use crate::util::fs::write_text_atomically;
+use crate::config::{write_config, Config};
+use crate::datafile::write_data_file;
+use crate::fs::write_text_atomically;
+use crate::obj::{read_obj_file, ObjFile, ObjMaterial};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
 use std::collections::HashMap;

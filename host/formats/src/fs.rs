@@ -1,6 +1,6 @@
 //! Files written whole or not at all: [`write_atomically`] and the folder it writes in.
 //!
-//! Every writer of the crate (images, generated scenes, converted meshes, statistics, reports)
+//! Every writer of Strahl (images, generated scenes, converted meshes, statistics, reports)
 //! goes through [`write_atomically`], so no failed run leaves a partial file behind.
 
 use anyhow::Context as _;

@@ -7,7 +7,7 @@
 //! ends the file (nothing after it is read, not even the rest of that line). Names are
 //! case-sensitive.
 
-use crate::formats::error::LoadError;
+use crate::error::LoadError;
 use std::path::Path;
 
 /// Reads `path` as UTF-8 text.
