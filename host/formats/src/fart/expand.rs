@@ -189,6 +189,24 @@ impl Div<f64> for DVec3 {
     }
 }
 
+/// Checks a block `word` that a scene holds at most once, at scene level (`top`): `first` is
+/// where an earlier one was; `expected` says how many may be written. Returns the block's place.
+fn once(first: Option<Pos>, b: &SettingsBlock, top: bool, word: &str, expected: &str) -> Res<Pos> {
+    if !top {
+        return err(b.pos, format!("`{word}` does not belong in a CSG node"));
+    }
+    if let Some(first) = first {
+        return err(
+            b.pos,
+            format!(
+                "expected {expected}, found a second one (the first is at {}:{})",
+                first.line, first.column
+            ),
+        );
+    }
+    Ok(b.pos)
+}
+
 /// The shapes that are neither CSG nor a use of a definition: [`ShapeKind`] less those two, so
 /// that building their node needs no arm for a kind handled elsewhere.
 #[derive(Clone, Copy, Debug)]
@@ -671,19 +689,13 @@ impl Expander {
     }
 
     fn options(&mut self, b: &SettingsBlock, top: bool) -> Res<()> {
-        if !top {
-            return err(b.pos, "`options` does not belong in a CSG node");
-        }
-        if let Some(first) = self.options {
-            return err(
-                b.pos,
-                format!(
-                    "expected one `options` block, found a second one (the first is at {}:{})",
-                    first.line, first.column
-                ),
-            );
-        }
-        self.options = Some(b.pos);
+        self.options = Some(once(
+            self.options,
+            b,
+            top,
+            "options",
+            "one `options` block",
+        )?);
         let k = Keyed::new(b, "options")?;
         let mut s = RenderSettings::default();
         if let Some(v) = k.get("width") {
@@ -709,19 +721,7 @@ impl Expander {
     }
 
     fn camera(&mut self, b: &SettingsBlock, top: bool) -> Res<()> {
-        if !top {
-            return err(b.pos, "`camera` does not belong in a CSG node");
-        }
-        if let Some(first) = self.camera {
-            return err(
-                b.pos,
-                format!(
-                    "expected exactly one `camera`, found a second one (the first is at {}:{})",
-                    first.line, first.column
-                ),
-            );
-        }
-        self.camera = Some(b.pos);
+        self.camera = Some(once(self.camera, b, top, "camera", "exactly one `camera`")?);
         let k = Keyed::new(b, "camera")?;
         let required = |key: &str| {
             k.get(key).ok_or_else(|| {
