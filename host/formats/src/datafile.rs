@@ -216,6 +216,8 @@ pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
         desc.shaders.len(),
         desc.lights.len()
     );
+    // One `writeln!` per record kind, field by field: the records look alike but each lists its
+    // own fields in the order the reader above takes them.
     for sh in &desc.shaders {
         let _ = writeln!(
             s,

@@ -16,6 +16,9 @@ pub const MAX_NESTING: u32 = 128;
 /// The most levels an expression's tree may have (operators applied to operators).
 pub const MAX_EXPR_HEIGHT: u32 = 256;
 
+// The word tables below repeat words on purpose: KEYWORDS lists every reserved word once, the
+// `*_KEYS` tables say which of them each block takes.
+
 /// The words that cannot name a variable or a definition.
 pub const KEYWORDS: &[&str] = &[
     "scene",
