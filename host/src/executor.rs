@@ -8,10 +8,11 @@
 use crate::cluster::link::Link;
 use crate::cluster::local::spawn_local_workers;
 use crate::cluster::prepared::PreparedScene;
-use crate::cluster::{DIAL_TIMEOUT, POLL_INTERVAL};
-use crate::hosts::{read_hosts_file, HostEntry};
+use crate::formats::hosts::{read_hosts_file, HostEntry};
+use crate::util::sys::{CONNECT_TIMEOUT, POLL_INTERVAL};
 use anyhow::{anyhow, bail, Context as _};
-use clap::Args;
+use nix::sys::signal::{killpg, Signal};
+use nix::unistd::Pid;
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
@@ -20,56 +21,24 @@ use std::sync::mpsc::{self, Receiver};
 use std::sync::Arc;
 use std::time::Duration;
 
-/// The command-line options that choose a render's workers and tune the master.
-#[derive(Clone, Debug, Default, Args)]
-pub struct ClusterArgs {
-    /// A TCP worker listening at HOST[:PORT] (default port 7415); repeatable.
-    #[arg(long = "worker", value_name = "HOST[:PORT]")]
+/// The workers outside this process a render uses, as the user named them (the command line's
+/// `ClusterArgs` of `strahl render` gives one); the specs are checked when the workers
+/// start.
+#[derive(Clone, Debug, Default)]
+pub struct WorkerSources {
+    /// TCP workers listening at `HOST[:PORT]`.
     pub worker: Vec<String>,
-
-    /// A hosts file (one HOST[:PORT] per line, `#` comments): the workers to dial, or with
-    /// --launch the hosts to start workers on.
-    #[arg(long, value_name = "FILE")]
+    /// A hosts file: the workers to dial, or with `launch` the hosts to start workers on.
     pub hosts: Option<PathBuf>,
-
-    /// Accept workers that dial in (`strahl worker --connect`) at HOST[:PORT]; port 0 picks a
-    /// free one.
-    #[arg(long, value_name = "HOST[:PORT]")]
+    /// Where to accept workers that dial in, `HOST[:PORT]`.
     pub listen: Option<String>,
-
-    /// Start one worker per hosts-file line with this shell command; `{host}` is replaced by the
-    /// host, `{master}` by the address workers dial (e.g. `ssh {host} strahl worker --connect
-    /// {master}`). Listens on --listen, or on a free port of all interfaces.
-    #[arg(long, value_name = "TEMPLATE", requires = "hosts")]
+    /// The shell command that starts one worker per hosts-file line.
     pub launch: Option<String>,
-
-    /// A serial worker at PATH[:BAUD] (default 115200 baud); repeatable.
-    #[arg(long = "serial", value_name = "PATH[:BAUD]")]
+    /// Serial workers at `PATH[:BAUD]`.
     pub serial: Vec<String>,
-
-    /// Line requests each worker has outstanding; 1 is the seed's one line at a time.
-    #[arg(long, value_name = "N", default_value_t = 2,
-          value_parser = clap::value_parser!(u32).range(1..=64))]
-    pub window: u32,
-
-    /// Seconds a worker with work may stay silent before it counts as hung and its lines go to
-    /// others; also how long a listening master waits with no worker.
-    #[arg(long, value_name = "SECS", default_value_t = 60.0, value_parser = positive_seconds)]
-    pub worker_timeout: f64,
 }
 
-/// Parses a positive, finite number of seconds.
-///
-/// # Errors
-/// A message if the text is not such a number.
-pub fn positive_seconds(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e6 => Ok(v),
-        _ => Err("expected a number of seconds greater than 0".to_string()),
-    }
-}
-
-impl ClusterArgs {
+impl WorkerSources {
     /// Whether any worker outside this process is named.
     pub fn has_remote(&self) -> bool {
         !self.worker.is_empty()
@@ -104,15 +73,11 @@ impl Drop for LaunchedWorker {
             }
             std::thread::sleep(LAUNCHED_EXIT_POLL);
         }
-        // `kill` stays: `Child::kill` signals only the shell, so an `ssh` or worker it started
-        // would live on, and std has no call that signals a process group (`libc::killpg`
-        // would need `unsafe`, which the workspace forbids). `Child::kill` below still stops
-        // the shell where `kill` is missing.
-        let group = format!("-{}", self.child.id());
-        let _ = Command::new("kill")
-            .args(["-TERM", "--", &group])
-            .stderr(Stdio::null())
-            .status();
+        // `Child::kill` alone signals only the shell, so an `ssh` or worker it started would
+        // live on: the whole group goes first (the shell leads it, see `launch_one`).
+        if let Ok(id) = i32::try_from(self.child.id()) {
+            let _ = killpg(Pid::from_raw(id), Signal::SIGTERM);
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -152,7 +117,7 @@ pub struct Workers {
 /// A bad hosts file, address or port spec, a listen address that cannot be bound, a launch
 /// command that cannot be started, or no worker at all.
 pub fn start_workers(
-    args: &ClusterArgs,
+    args: &WorkerSources,
     local: usize,
     prepared: &PreparedScene,
     warn: &dyn Fn(&str),
@@ -185,7 +150,11 @@ pub fn start_workers(
         let (acceptor, joins) = accept_workers(&endpoint)?;
         if let Some(template) = &args.launch {
             let master = if acceptor.address.ip().is_unspecified() {
-                format!("{}:{}", crate::worker::host_name(), acceptor.address.port())
+                format!(
+                    "{}:{}",
+                    crate::util::sys::host_name(),
+                    acceptor.address.port()
+                )
             } else {
                 acceptor.address.to_string()
             };
@@ -198,7 +167,7 @@ pub fn start_workers(
     }
 
     for endpoint in dial {
-        match strahl_tcp::connect(&endpoint, DIAL_TIMEOUT)
+        match strahl_tcp::connect(&endpoint, CONNECT_TIMEOUT)
             .and_then(|s| Link::from_tcp(endpoint.clone(), s))
         {
             Ok(link) => w.links.push(link),

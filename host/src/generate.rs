@@ -1,11 +1,16 @@
 //! Procedural scenes: the demo room's `ROOM.txt`, the large benchmark scene, and meshes for tests.
 //!
 //! Everything here is deterministic (a fixed xorshift generator, no clock), so a generated file is
-//! the same on every machine. [`write_data_file`] writes a scene in the seed's data format, which
-//! is how the generated scenes reach users: `strahl generate room|large`.
+//! the same on every machine. The generated scenes reach users as files in the seed's formats,
+//! written by [`crate::formats::datafile::write_data_file`] and, for the large scene's
+//! [`large_config`], [`crate::formats::config::write_config`], when `strahl generate room|large`
+//! runs (the command line's `generate` module). Benchmarks and the tests crate use the scenes
+//! directly.
 
+use crate::formats::config::Config;
+use crate::formats::datafile::write_data_file;
 use glam::Vec3;
-use std::fmt::Write as _;
+use std::path::PathBuf;
 use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
@@ -195,6 +200,19 @@ fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflecti
 /// four walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
 /// of which casts no shadow.
 pub fn room() -> SceneDesc {
+    let m = room_geometry();
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders: room_shaders(),
+        lights: room_lights(),
+        ..SceneDesc::default()
+    }
+}
+
+/// The room's triangles: shader 0 the floor, 1 the back and front walls, 2 the side walls, 3 the
+/// sphere, 4 the torus, 5 the mirror.
+fn room_geometry() -> MeshBuilder {
     let mut m = MeshBuilder::default();
     let mut rng = Rng::new(7);
     let (floor, wall, side, sphere, torus, mirror) = (0, 1, 2, 3, 4, 5);
@@ -255,7 +273,12 @@ pub fn room() -> SceneDesc {
         &mut rng,
     );
     m.torus(Vec3::new(26.0, 0.0, 7.0), 15.0, 6.0, 64, 24, torus);
-    let shaders = vec![
+    m
+}
+
+/// The room's shaders, in the order of [`room_geometry`]'s shader numbers.
+fn room_shaders() -> Vec<Shader> {
+    vec![
         shader(
             Vec3::splat(0.06),
             Vec3::new(0.55, 0.52, 0.48),
@@ -298,8 +321,12 @@ pub fn room() -> SceneDesc {
             60.0,
             0.85,
         ),
-    ];
-    let lights = vec![
+    ]
+}
+
+/// The room's two lights: a warm one that casts shadows, a cool fill light that does not.
+fn room_lights() -> Vec<Light> {
+    vec![
         Light {
             position: Vec3::new(-40.0, -40.0, 75.0),
             color: Vec3::new(1.0, 0.95, 0.85),
@@ -312,14 +339,7 @@ pub fn room() -> SceneDesc {
             amount: 0.35,
             casts_shadows: false,
         },
-    ];
-    SceneDesc {
-        points: m.points,
-        triangles: m.triangles,
-        shaders,
-        lights,
-        ..SceneDesc::default()
-    }
+    ]
 }
 
 /// A large scene of at least `min_triangles` triangles: a fractal-noise terrain under a ring of
@@ -336,6 +356,23 @@ pub fn large(min_triangles: u32) -> SceneDesc {
         let c = Vec3::new(60.0 * libm::cosf(a), 60.0 * libm::sinf(a) + 40.0, 22.0);
         m.sphere(c, 12.0, seg, seg / 2, 0.0, 1 + (k % 2), &mut rng);
     }
+    large_terrain(&mut m, min_triangles);
+    let shaders = large_shaders();
+    let lights = large_lights();
+    let camera = Camera::Seed(LARGE_CAMERA);
+    SceneDesc {
+        points: m.points,
+        triangles: m.triangles,
+        shaders,
+        lights,
+        camera,
+        ..SceneDesc::default()
+    }
+}
+
+/// Adds the large scene's terrain (shader 0) to `m`: a square grid of fractal-noise heights with
+/// enough triangles to bring `m` to at least `min_triangles`.
+fn large_terrain(m: &mut MeshBuilder, min_triangles: u32) {
     let remaining = min_triangles.saturating_sub(m.triangles.len() as u32);
     let n = (((remaining as f32) / 2.0).sqrt().ceil() as u32).max(2);
     let size = 300.0;
@@ -374,7 +411,11 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             });
         }
     }
-    let shaders = vec![
+}
+
+/// The large scene's shaders: the terrain, then the two sphere colours.
+fn large_shaders() -> Vec<Shader> {
+    vec![
         shader(
             Vec3::splat(0.05),
             Vec3::new(0.45, 0.5, 0.35),
@@ -396,8 +437,12 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             40.0,
             0.0,
         ),
-    ];
-    let lights = vec![
+    ]
+}
+
+/// The large scene's lights: a white one that casts shadows, a blue fill light that does not.
+fn large_lights() -> Vec<Light> {
+    vec![
         Light {
             position: Vec3::new(-100.0, -150.0, 200.0),
             color: Vec3::ONE,
@@ -410,81 +455,29 @@ pub fn large(min_triangles: u32) -> SceneDesc {
             amount: 0.3,
             casts_shadows: false,
         },
-    ];
-    let camera = Camera::Seed(SeedCamera {
-        position: Vec3::new(0.0, -160.0, 60.0),
-        angle_x_deg: -18.0,
-        angle_z_deg: 0.0,
-        zoom: 1.2,
-    });
-    SceneDesc {
-        points: m.points,
-        triangles: m.triangles,
-        shaders,
-        lights,
-        camera,
-        ..SceneDesc::default()
-    }
+    ]
 }
 
-/// Writes the geometry, shaders and lights of `desc` in the seed's data format (0-based indices),
-/// with `header` as `REM` lines. Numbers are written so they read back to the same `f32`.
-pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
-    let mut s = String::new();
-    for line in header.lines() {
-        let _ = writeln!(s, "REM {line}");
+/// The seed camera of the large scene: its [`SceneDesc`] and its configuration file share it.
+pub const LARGE_CAMERA: SeedCamera = SeedCamera {
+    position: Vec3::new(0.0, -160.0, 60.0),
+    angle_x_deg: -18.0,
+    angle_z_deg: 0.0,
+    zoom: 1.2,
+};
+
+/// The configuration file `strahl generate large` writes beside `LARGE.txt`: a 1024 × 768
+/// `large.bmp` under a sky-blue background, seen from [`LARGE_CAMERA`].
+pub fn large_config() -> Config {
+    Config {
+        image_name: Some(PathBuf::from("large.bmp")),
+        width: 1024,
+        height: 768,
+        input_data: Some(PathBuf::from("LARGE.txt")),
+        background: Vec3::new(0.55, 0.7, 0.9),
+        camera: LARGE_CAMERA,
+        ..Config::default()
     }
-    let _ = writeln!(
-        s,
-        "_OBJ {} {} {} {}",
-        desc.points.len(),
-        desc.triangles.len(),
-        desc.shaders.len(),
-        desc.lights.len()
-    );
-    for sh in &desc.shaders {
-        let _ = writeln!(
-            s,
-            "_SHD {} {} {} {} {} {} {} {} {} {} {}",
-            sh.ambient.x,
-            sh.ambient.y,
-            sh.ambient.z,
-            sh.diffuse.x,
-            sh.diffuse.y,
-            sh.diffuse.z,
-            sh.specular.x,
-            sh.specular.y,
-            sh.specular.z,
-            sh.shininess,
-            sh.reflection
-        );
-    }
-    for l in &desc.lights {
-        let _ = writeln!(
-            s,
-            "_LIGHT {} {} {} {} {} {} {} {}",
-            l.position.x,
-            l.position.y,
-            l.position.z,
-            l.color.x,
-            l.color.y,
-            l.color.z,
-            l.amount,
-            u8::from(l.casts_shadows)
-        );
-    }
-    for p in &desc.points {
-        let _ = writeln!(s, "_PT {} {} {}", p.x, p.y, p.z);
-    }
-    for t in &desc.triangles {
-        let _ = writeln!(
-            s,
-            "_TR {} {} {} {}",
-            t.points[0], t.points[1], t.points[2], t.shader
-        );
-    }
-    s.push_str("QUIT\n");
-    s
 }
 
 /// The text of `scenes/room/ROOM.txt`, exactly as `strahl generate room` writes it.
@@ -495,90 +488,4 @@ pub fn room_data_file() -> String {
          Floor and four walls, a smooth sphere, a smooth torus, a mirror, two lights\n\
          (the second casts no shadow). For the seed's example raytracer.cfg.",
     )
-}
-
-/// Which scene `strahl generate` writes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum SceneKind {
-    /// The demo room's `ROOM.txt` (for the seed's example `raytracer.cfg`).
-    Room,
-    /// The large benchmark scene: `LARGE.txt` and a `raytracer.cfg` for it.
-    Large,
-}
-
-/// Arguments of `strahl generate`.
-#[derive(Debug, clap::Args)]
-pub struct GenerateArgs {
-    /// The scene to write.
-    #[arg(value_enum)]
-    pub kind: SceneKind,
-    /// The folder to write into (it must exist).
-    #[arg(short, long, value_name = "DIR", default_value = ".")]
-    pub output: std::path::PathBuf,
-    /// Least number of triangles of the large scene.
-    #[arg(long, value_name = "N", default_value_t = 100_000,
-          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
-    pub triangles: u32,
-}
-
-/// Writes `text` to `path` atomically (see [`crate::output::write_atomically`]).
-fn write_atomically(path: &std::path::Path, text: &str) -> anyhow::Result<()> {
-    use anyhow::Context as _;
-    use std::io::Write as _;
-    crate::output::write_atomically(path, |w| {
-        w.write_all(text.as_bytes())
-            .with_context(|| format!("{}: cannot write", path.display()))
-    })
-}
-
-/// Runs `strahl generate`: writes the chosen scene into the output folder.
-///
-/// # Errors
-/// A missing or unwritable output folder.
-pub fn run(args: &GenerateArgs) -> anyhow::Result<()> {
-    let dir = &args.output;
-    if !dir.is_dir() {
-        anyhow::bail!("{}: no such folder", dir.display());
-    }
-    match args.kind {
-        SceneKind::Room => {
-            write_atomically(&dir.join("ROOM.txt"), &room_data_file())?;
-            eprintln!("wrote {}", dir.join("ROOM.txt").display());
-        }
-        SceneKind::Large => {
-            let desc = large(args.triangles);
-            let header = format!(
-                "Strahl large benchmark scene, written by `strahl generate large --triangles {}`.\n\
-                 {} triangles: fractal terrain and a ring of twelve smooth spheres.",
-                args.triangles,
-                desc.triangles.len()
-            );
-            write_atomically(&dir.join("LARGE.txt"), &write_data_file(&desc, &header))?;
-            let Camera::Seed(c) = &desc.camera else {
-                anyhow::bail!("the large scene has a seed camera");
-            };
-            let cfg = format!(
-                "REM Strahl large benchmark scene ({} triangles)\n\
-                 $IMAGE_NAME large.bmp\n$IMAGE_WIDTH 1024\n$IMAGE_HEIGHT 768\n\
-                 $INPUT_DATA LARGE.txt\n$SHADOWS 1\n$REFLECTIONS 1\n\
-                 $COLOR_BG_R 0.55\n$COLOR_BG_G 0.7\n$COLOR_BG_B 0.9\n\
-                 $CAM_POS_X {}\n$CAM_POS_Y {}\n$CAM_POS_Z {}\n\
-                 $CAM_POS_ANGLE_X {}\n$CAM_POS_ANGLE_Z {}\n$CAM_POS_ZOOM {}\nQUIT\n",
-                desc.triangles.len(),
-                c.position.x,
-                c.position.y,
-                c.position.z,
-                c.angle_x_deg,
-                c.angle_z_deg,
-                c.zoom
-            );
-            write_atomically(&dir.join("raytracer.cfg"), &cfg)?;
-            eprintln!(
-                "wrote {} and {}",
-                dir.join("LARGE.txt").display(),
-                dir.join("raytracer.cfg").display()
-            );
-        }
-    }
-    Ok(())
 }

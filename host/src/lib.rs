@@ -1,25 +1,55 @@
 //! Strahl's host side: everything that needs an operating system.
 //!
-//! Modules (each helper adds its own `pub mod` line here):
+//! The host is five groups of modules and a neutral base. The file formats are a crate of their
+//! own, `strahl-formats` (folder `host/formats`), re-exported here as [`formats`]; the other
+//! groups are folders (or files) of this crate:
+//!
+//! | group | where | what |
+//! |---|---|---|
+//! | formats | [`formats`] (`host/formats`): `lines config datafile nff obj mesh fart/ hosts load convert fs error` | every file read or written in Strahl's scene formats, each reader beside its writer; atomic file writes |
+//! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene, test meshes) |
+//! | cluster | [`cluster`] (master, scheduler, links, local and simulated workers), [`executor`] (which workers a render uses, and starting them) | rendering through workers |
+//! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
+//! | benchmarks | [`bench`](mod@bench), [`bench_scaling`], [`bench_accuracy`] | `strahl bench` and its studies |
+//! | base | [`util`]: `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
+//!
+//! Dependencies point one way, from the interface down:
+//!
+//! ```text
+//! cli ──► bench ──► cluster ──► formats
+//!  │        │          └──► util
+//!  │        └──► generate ──► formats
+//!  └──► output, and every group below
+//! ```
+//!
+//! - `formats` is a separate crate and uses nothing of this one: the compiler keeps it below
+//!   everything, and its dependencies hold no clap, indicatif or image.
+//! - `util` uses no group; `generate` uses only `formats` (the data file and configuration file
+//!   writers).
+//! - `cluster` and `executor` use `formats` (the hosts file) and `util`; they take plain structs
+//!   (`WorkerSources`, `MasterOptions`), never clap types.
+//! - the benchmarks use `cluster`, `formats`, `generate` and `util`; `output` uses `formats::fs`.
+//! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`,
+//!   except the benchmarks' own (still in [`bench`](mod@bench) and [`bench_accuracy`], owned
+//!   elsewhere, and reached only through [`cli::bench`]).
+//!
+//! Why the formats are a crate and the rest are folders: the parsers are the part with users of
+//! their own (a tool that reads `.fart` or `raytracer.cfg` files), who should not pull in a
+//! command line, a progress bar or image codecs; a crate boundary makes that, and the direction
+//! of dependencies, a compiler error rather than a convention. The other groups share the
+//! binary's dependencies anyway, so separate crates would buy them only build boundaries; inside
+//! this crate, `host/tests/layering.rs` fails when `util`, `generate` or the cluster names a group
+//! above it (or the cluster names clap). Making the cluster a crate is a later step for its
+//! owner. `executor` belongs to the cluster group but stays at the crate root while the
+//! cluster's owner reworks it.
+
 pub mod bench;
 pub mod bench_accuracy;
 pub mod bench_scaling;
 pub mod cli;
 pub mod cluster;
-pub mod config;
-pub mod convert;
-pub mod datafile;
-pub mod error;
 pub mod executor;
-pub mod fart;
+pub use strahl_formats as formats;
 pub mod generate;
-pub mod hosts;
-pub mod lines;
-pub mod load;
-pub mod mesh;
-pub mod nff;
-pub mod obj;
 pub mod output;
-pub mod progress;
-pub mod summary;
-pub mod worker;
+pub mod util;

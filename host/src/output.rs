@@ -1,4 +1,5 @@
-//! Image files: 24-bit uncompressed BMP or PNG, written atomically.
+//! Image files: 24-bit uncompressed BMP or PNG, written atomically (through
+//! [`crate::formats::fs::write_atomically`]).
 //!
 //! The format follows the file name's extension, case-insensitively: `.bmp` gives a BMP, `.png` a
 //! PNG, and anything else is an error. [`check_output_path`] checks the name and the destination
@@ -6,9 +7,9 @@
 //! temporary file in the destination folder and renames it over the destination only when the
 //! image is complete, so a failed run never leaves a partial or empty image behind.
 
+use crate::formats::fs::{destination_folder, write_atomically};
 use anyhow::{bail, Context as _};
-use std::io::{BufWriter, Write as _};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use strahl_core::render::pixel::Pixel;
 
 /// The image file formats the renderer writes.
@@ -27,14 +28,6 @@ impl ImageKind {
             ImageKind::Bmp => image::ImageFormat::Bmp,
             ImageKind::Png => image::ImageFormat::Png,
         }
-    }
-}
-
-/// The folder a file at `path` lives in (`.` for a bare file name).
-fn destination_folder(path: &Path) -> PathBuf {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
     }
 }
 
@@ -120,50 +113,6 @@ pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[Pixel]) -> an
         img.write_to(w, kind.format())
             .with_context(|| format!("{}: cannot write the image", path.display()))
     })
-}
-
-/// Writes a file through a temporary file in its folder that is renamed into place at the end:
-/// readers never see a partial file, and on any error nothing is left at `path` (an existing
-/// file there stays as it was).
-///
-/// # Errors
-/// Any error of `write`, or an I/O error naming `path`.
-pub fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> anyhow::Result<()>,
-) -> anyhow::Result<()> {
-    let dir = destination_folder(path);
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".strahl-").suffix(".tmp");
-    #[cfg(unix)]
-    {
-        // Like any new file: readable by all, subject to the umask (tempfile defaults to 0600).
-        use std::os::unix::fs::PermissionsExt as _;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder.tempfile_in(&dir).with_context(|| {
-        format!(
-            "{}: cannot create a temporary file in {}",
-            path.display(),
-            dir.display()
-        )
-    })?;
-    {
-        let mut w = BufWriter::new(tmp.as_file_mut());
-        write(&mut w)?;
-        w.flush()
-            .with_context(|| format!("{}: cannot write", path.display()))?;
-    }
-    tmp.as_file()
-        .sync_all()
-        .with_context(|| format!("{}: cannot write", path.display()))?;
-    tmp.persist(path).map_err(|e| e.error).with_context(|| {
-        format!(
-            "{}: cannot move the finished file into place",
-            path.display()
-        )
-    })?;
-    Ok(())
 }
 
 #[cfg(test)]

@@ -29,7 +29,7 @@ use strahl_host::cluster::link::{Link, LinkKind};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::master::{run_master, ClusterImage, MasterOptions};
 use strahl_host::cluster::prepared::PreparedScene;
-use strahl_host::load::{load_config_scene, Overrides};
+use strahl_host::formats::load::{load_config_scene, Overrides};
 use strahl_serial::SerialPort;
 
 type TestResult = Result<(), Box<dyn Error>>;

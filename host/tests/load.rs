@@ -3,8 +3,8 @@
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::RenderSettings;
-use strahl_host::error::LoadError;
-use strahl_host::load::{load_config_scene, Overrides};
+use strahl_host::formats::error::LoadError;
+use strahl_host::formats::load::{load_config_scene, Overrides};
 
 const ROOM: &str = "_SHD 0.1 0.1 0.1 0.5 0.5 0.5 0 0 0 1 0\n_LIGHT 0 0 10 1 1 1 1 1\n\
                     _PT 0 0 0\n_PT 1 0 0\n_PT 0 1 0\n_TR 0 1 2 0\n";

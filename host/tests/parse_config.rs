@@ -3,8 +3,8 @@
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::camera::SeedCamera;
-use strahl_host::config::{parse_config, read_config, Config};
-use strahl_host::error::LoadError;
+use strahl_host::formats::config::{parse_config, read_config, Config};
+use strahl_host::formats::error::LoadError;
 
 mod common;
 use common::{assert_at, write};

@@ -4,8 +4,8 @@ use glam::Vec3;
 use proptest::prelude::*;
 use std::path::Path;
 use strahl_core::scene::{Light, Shader, TriangleDesc};
-use strahl_host::datafile::{parse_data, read_data, SceneData};
-use strahl_host::error::LoadError;
+use strahl_host::formats::datafile::{parse_data, read_data, SceneData};
+use strahl_host::formats::error::LoadError;
 
 const SHD: &str = "_SHD 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 20 0.5\n";
 const LIGHT: &str = "_LIGHT 1 2 3 0.5 0.6 0.7 0.8 1\n";

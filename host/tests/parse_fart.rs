@@ -11,8 +11,8 @@ use strahl_core::render::render_line;
 use strahl_core::scene::camera::Camera;
 use strahl_core::scene::{Scene, SceneDesc, Shader};
 use strahl_core::Vec3;
-use strahl_host::error::LoadError;
-use strahl_host::fart::{load_fart, load_fart_source};
+use strahl_host::formats::error::LoadError;
+use strahl_host::formats::fart::{load_fart, load_fart_source};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
 

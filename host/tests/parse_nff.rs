@@ -1,4 +1,4 @@
-//! Tests of the NFF reader (`strahl_host::nff`): the SPD benchmark scenes, every entity's mapping,
+//! Tests of the NFF reader (`strahl_host::formats::nff`): the SPD benchmark scenes, every entity's mapping,
 //! exact error messages, rendering, and the examples of `scenes/FORMATS.md` section 10.
 
 use glam::Vec3;
@@ -11,8 +11,8 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Light, Scene, SceneDesc, TriangleDesc};
-use strahl_host::error::LoadError;
-use strahl_host::nff::{cone_transform, load_nff, parse_nff, shader_from_nff};
+use strahl_host::formats::error::LoadError;
+use strahl_host::formats::nff::{cone_transform, load_nff, parse_nff, shader_from_nff};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

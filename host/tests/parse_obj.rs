@@ -1,4 +1,4 @@
-//! Tests of the OBJ reader (`strahl_host::obj`), `append_mesh` and `strahl convert`'s
+//! Tests of the OBJ reader (`strahl_host::formats::obj`), `append_mesh` and `strahl convert`'s
 //! `convert_obj`.
 
 use glam::{Mat3, Vec3};
@@ -9,11 +9,11 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::camera::Camera;
 use strahl_core::scene::{Scene, SceneDesc, TriangleDesc};
-use strahl_host::convert::{convert_obj, convert_obj_with, y_up_to_z_up, ConvertOptions};
-use strahl_host::error::LoadError;
-use strahl_host::load::{load_config_scene, Overrides};
-use strahl_host::mesh::append_mesh;
-use strahl_host::obj::{read_obj, read_obj_file, ObjTriangle};
+use strahl_host::formats::convert::{convert_obj, convert_obj_with, y_up_to_z_up, ConvertOptions};
+use strahl_host::formats::error::LoadError;
+use strahl_host::formats::load::{load_config_scene, Overrides};
+use strahl_host::formats::mesh::append_mesh;
+use strahl_host::formats::obj::{read_obj, read_obj_file, ObjTriangle};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -178,7 +178,7 @@ fn append_mesh_places_points_and_normals() {
     // Axis normals stay axis normals (unit length) under the scale.
     assert_eq!(desc.normals[1 + 3], Vec3::X);
     // A slanted normal follows the inverse transpose: (1,1,0) under x·2 becomes (0.5,1,0)/|…|.
-    let slanted = strahl_host::obj::ObjMesh {
+    let slanted = strahl_host::formats::obj::ObjMesh {
         points: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
         normals: vec![Vec3::new(1.0, 1.0, 0.0)],
         triangles: vec![ObjTriangle {

@@ -36,8 +36,8 @@ use strahl_host::cluster::pipe::LinkModel;
 use strahl_host::cluster::prepared::PreparedScene;
 use strahl_host::cluster::report::WorkerReport;
 use strahl_host::cluster::sim::{spawn_sim_worker, Fault, SimWorker};
+use strahl_host::formats::load::{load_config_scene, Overrides};
 use strahl_host::generate::Rng;
-use strahl_host::load::{load_config_scene, Overrides};
 
 /// The longest a gate holds a link shut; only reached if the test is already failing.
 const GATE_LIMIT: Duration = Duration::from_secs(20);

@@ -9,7 +9,7 @@ use strahl_core::accel::octree::OctreeParams;
 use strahl_core::scene::SceneDesc;
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
-use strahl_host::load::{load_config_scene, Overrides};
+use strahl_host::formats::load::{load_config_scene, Overrides};
 
 fn fnv1a(bytes: impl Iterator<Item = u8>) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325u64;

@@ -35,8 +35,8 @@ use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
+use strahl_host::formats::load::{load_config_scene, Overrides};
 use strahl_host::generate::Rng;
-use strahl_host::load::{load_config_scene, Overrides};
 use strahl_tests::{boundary_grid, positions, random_soup};
 
 // ---------------------------------------------------------------------------------------------
@@ -1258,7 +1258,7 @@ fn degenerate_triangles_never_hit_and_are_reported() {
     let scene = build(&loaded.desc);
     assert_eq!(scene.degenerate_triangles, 3);
     assert_eq!(scene.octree.stats().filed_triangles, 1);
-    // The host warns about them when it renders (`cli::run_render`: "N of M triangles have zero
+    // The host warns about them when it renders (`cli::render::run`: "N of M triangles have zero
     // area ... and are never hit"); that path writes to the terminal and is not checked here.
 }
 

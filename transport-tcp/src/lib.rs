@@ -14,6 +14,12 @@ use std::net::{TcpListener, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
 
+/// How long one attempt to connect may take before it counts as failed.
+pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// How long a dialling worker waits before it tries its master again.
+const REDIAL_INTERVAL: Duration = Duration::from_millis(200);
+
 /// The port workers listen on and masters dial when an address names none.
 pub const DEFAULT_PORT: u16 = 7415;
 
@@ -191,10 +197,10 @@ pub fn dial(
 ) -> Result<SessionEnd, SessionError> {
     let start = Instant::now();
     let stream = loop {
-        match connect(endpoint, Duration::from_secs(5)) {
+        match connect(endpoint, CONNECT_TIMEOUT) {
             Ok(s) => break s,
             Err(e) if start.elapsed() >= patience => return Err(SessionError::Setup(e)),
-            Err(_) => std::thread::sleep(Duration::from_millis(200)),
+            Err(_) => std::thread::sleep(REDIAL_INTERVAL),
         }
     };
     serve_stream(stream, node, cache)

@@ -35,7 +35,7 @@
 
 use crate::cluster::local::render_local;
 use crate::cluster::prepared::PreparedScene;
-use crate::load::{load_scene, Overrides};
+use crate::formats::load::{load_scene, Overrides};
 use anyhow::{anyhow, bail, Context as _};
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -1037,7 +1037,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
     );
     let picture = svg(&panels);
     for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
-        crate::output::write_atomically(path, |w| {
+        crate::formats::fs::write_atomically(path, |w| {
             w.write_all(text.as_bytes())
                 .with_context(|| format!("{}: cannot write", path.display()))
         })?;

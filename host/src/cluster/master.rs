@@ -11,7 +11,7 @@ use crate::cluster::link::Link;
 use crate::cluster::link_threads::Links;
 use crate::cluster::report::WorkerReport;
 use crate::cluster::session::{Event, Session, Wire};
-use crate::cluster::POLL_INTERVAL;
+use crate::util::sys::POLL_INTERVAL;
 use std::collections::HashSet;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::sync::Arc;

@@ -31,16 +31,6 @@
 //!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
 
-use std::time::Duration;
-
-/// How often a waiting thread of the cluster looks again: the master's loop checks time-outs,
-/// a blocked pipe read whether the pipe was closed, a hung simulated worker whether its link
-/// was cut, the accepting thread for a new worker.
-pub const POLL_INTERVAL: Duration = Duration::from_millis(20);
-
-/// How long the master tries to reach a TCP worker it dials before going on without it.
-pub const DIAL_TIMEOUT: Duration = Duration::from_secs(5);
-
 pub(crate) mod assembly;
 pub mod link;
 pub(crate) mod link_threads;

@@ -6,7 +6,7 @@
 //! write, a bandwidth that makes writes take time, and seeded bit flips. Closing either end (or
 //! dropping it) ends the stream for both: reads return end of stream, writes a broken pipe.
 
-use crate::cluster::POLL_INTERVAL;
+use crate::util::sys::POLL_INTERVAL;
 use std::io::{self, Read, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError, Sender};

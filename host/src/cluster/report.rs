@@ -1,9 +1,10 @@
 //! What each worker did in a render: the per-worker table of the end summary.
 //!
-//! The cluster keeps to its own types: the interface that prints the table says how a ray rate
-//! is written, so the cluster does not depend on the interface layer.
+//! Ray rates are written by [`crate::util::units`], the same function the progress bar uses, so
+//! the cluster does not depend on the interface layer.
 
 use crate::cluster::link::LinkKind;
+use crate::util::units::format_ray_rate;
 use std::fmt;
 use std::time::Duration;
 use strahl_core::render::stats::RayCounts;
@@ -55,9 +56,8 @@ impl WorkerReport {
     }
 }
 
-/// The per-worker table printed after a render: the reports, and how the interface writes `rays`
-/// traced in `secs` seconds as a rate (the column `rate`).
-pub struct WorkerTable<'a>(pub &'a [WorkerReport], pub fn(u64, f64) -> String);
+/// The per-worker table printed after a render.
+pub struct WorkerTable<'a>(pub &'a [WorkerReport]);
 
 impl fmt::Display for WorkerTable<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
@@ -77,7 +77,7 @@ impl fmt::Display for WorkerTable<'_> {
                 w.duplicates,
                 w.rays.total(),
                 secs,
-                (self.1)(w.rays.total(), secs),
+                format_ray_rate(w.rays.total(), secs),
                 w.reissued,
                 w.frames_dropped,
                 w.lost.as_deref().unwrap_or("ok"),

@@ -8,7 +8,7 @@
 
 use crate::cluster::link::Link;
 use crate::cluster::pipe::{duplex, LinkModel, PipeCloser, PipeEnd};
-use crate::cluster::POLL_INTERVAL;
+use crate::util::sys::POLL_INTERVAL;
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use embedded_io_adapters::std::FromStd;
 use std::time::Instant;

@@ -1,7 +1,7 @@
 //! Helpers shared by the parser tests.
 
 use std::path::{Path, PathBuf};
-use strahl_host::error::LoadError;
+use strahl_host::formats::error::LoadError;
 
 /// Writes a fixture file into `dir` and returns its path.
 pub fn write(dir: &tempfile::TempDir, name: &str, bytes: &[u8]) -> PathBuf {

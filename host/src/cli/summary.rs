@@ -1,6 +1,9 @@
 //! The one line a render prints at the end: size, times, scene and octree, rays, output.
+//!
+//! [`RenderSummary`] is that line (its `Display`); [`RenderStats`] is the same render, with the
+//! per-worker reports of [`crate::cluster::report`], as the JSON `--stats-json` writes.
 
-use crate::progress::format_ray_rate;
+use crate::util::units::format_ray_rate;
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;

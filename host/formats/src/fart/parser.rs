@@ -16,6 +16,9 @@ pub const MAX_NESTING: u32 = 128;
 /// The most levels an expression's tree may have (operators applied to operators).
 pub const MAX_EXPR_HEIGHT: u32 = 256;
 
+// The word tables below repeat words on purpose: KEYWORDS lists every reserved word once, the
+// `*_KEYS` tables say which of them each block takes.
+
 /// The words that cannot name a variable or a definition.
 pub const KEYWORDS: &[&str] = &[
     "scene",
@@ -576,6 +579,19 @@ impl<'t> Parser<'t> {
         t
     }
 
+    /// Takes the next token if it is `kind`; otherwise the error `expected WHAT, found ...` at
+    /// it, WHAT from `what` (made only then).
+    fn expect(&mut self, kind: &TokenKind, what: impl FnOnce() -> String) -> Result<(), FartError> {
+        let t = self.bump();
+        if t.kind != *kind {
+            return Err(FartError::new(
+                t.pos,
+                format!("expected {}, found {}", what(), t.kind.describe()),
+            ));
+        }
+        Ok(())
+    }
+
     fn enter(&mut self, pos: Pos) -> Result<(), FartError> {
         self.depth += 1;
         if self.depth > MAX_NESTING {
@@ -672,29 +688,7 @@ impl<'t> Parser<'t> {
                 "define" => stmts.push(self.define()?),
                 "for" => stmts.push(self.for_loop(ctx)?),
                 "if" => stmts.push(self.if_chain(ctx)?),
-                "options" | "camera" | "light" => {
-                    if !matches!(ctx, Ctx::Scene) {
-                        return Err(FartError::new(
-                            t.pos,
-                            format!(
-                                "`{word}` does not belong {}; lights, the camera and options are written at scene level",
-                                ctx.place()
-                            ),
-                        ));
-                    }
-                    self.bump();
-                    let keys = match word {
-                        "options" => OPTIONS_KEYS,
-                        "camera" => CAMERA_KEYS,
-                        _ => LIGHT_KEYS,
-                    };
-                    let block = self.settings(word, t.pos, keys)?;
-                    stmts.push(match word {
-                        "options" => Stmt::Options(block),
-                        "camera" => Stmt::Camera(block),
-                        _ => Stmt::Light(block),
-                    });
-                }
+                "options" | "camera" | "light" => stmts.push(self.scene_block(ctx, word, t.pos)?),
                 "sphere" | "plane" | "box" | "cyl" | "mesh" | "union" | "intersect"
                 | "subtract" => stmts.push(Stmt::Shape(self.shape()?)),
                 "translate" | "rotate" | "scale" | "material"
@@ -703,51 +697,75 @@ impl<'t> Parser<'t> {
                     self.bump();
                     items.push(self.shape_item(word, t.pos)?);
                 }
-                w if is_reserved(w) => {
-                    let hint = match w {
-                        "translate" | "rotate" | "scale" | "material" => {
-                            "; write it inside the shape it belongs to"
-                        }
-                        "else" => "; `else` follows the `}` of an `if`",
-                        _ => "",
-                    };
-                    return Err(FartError::new(
-                        t.pos,
-                        format!("`{w}` does not belong {}{hint}", ctx.place()),
-                    ));
-                }
+                w if is_reserved(w) => return Err(Self::misplaced(ctx, w, t.pos)),
                 w => {
                     if self.peek2().kind == TokenKind::LBrace {
                         stmts.push(Stmt::Shape(self.shape()?));
                     } else {
-                        return Err(FartError::new(
-                            t.pos,
-                            format!(
-                                "unknown keyword `{w}` {}; expected {} (a defined shape is used as `{w} {{ ... }}`)",
-                                ctx.place(),
-                                ctx.expected()
-                            ),
-                        ));
+                        return Err(Self::unknown(ctx, w, t.pos));
                     }
                 }
             }
         }
     }
 
-    fn let_stmt(&mut self) -> Result<Stmt, FartError> {
-        self.bump();
-        let name = self.new_name("let")?;
-        let t = self.bump();
-        if t.kind != TokenKind::Assign {
+    /// An `options`, `camera` or `light` block (`word`, at `pos`), which only the scene level
+    /// may hold.
+    fn scene_block(&mut self, ctx: &Ctx, word: &str, pos: Pos) -> Result<Stmt, FartError> {
+        if !matches!(ctx, Ctx::Scene) {
             return Err(FartError::new(
-                t.pos,
+                pos,
                 format!(
-                    "expected `=` after `let {}`, found {}",
-                    name.text,
-                    t.kind.describe()
+                    "`{word}` does not belong {}; lights, the camera and options are written at scene level",
+                    ctx.place()
                 ),
             ));
         }
+        self.bump();
+        let keys = match word {
+            "options" => OPTIONS_KEYS,
+            "camera" => CAMERA_KEYS,
+            _ => LIGHT_KEYS,
+        };
+        let block = self.settings(word, pos, keys)?;
+        Ok(match word {
+            "options" => Stmt::Options(block),
+            "camera" => Stmt::Camera(block),
+            _ => Stmt::Light(block),
+        })
+    }
+
+    /// The error for the reserved word `w` at `pos` where `ctx` does not take it.
+    fn misplaced(ctx: &Ctx, w: &str, pos: Pos) -> FartError {
+        let hint = match w {
+            "translate" | "rotate" | "scale" | "material" => {
+                "; write it inside the shape it belongs to"
+            }
+            "else" => "; `else` follows the `}` of an `if`",
+            _ => "",
+        };
+        FartError::new(pos, format!("`{w}` does not belong {}{hint}", ctx.place()))
+    }
+
+    /// The error for the unknown word `w` at `pos`, not followed by a `{` that would make it a
+    /// use of a defined shape.
+    fn unknown(ctx: &Ctx, w: &str, pos: Pos) -> FartError {
+        FartError::new(
+            pos,
+            format!(
+                "unknown keyword `{w}` {}; expected {} (a defined shape is used as `{w} {{ ... }}`)",
+                ctx.place(),
+                ctx.expected()
+            ),
+        )
+    }
+
+    fn let_stmt(&mut self) -> Result<Stmt, FartError> {
+        self.bump();
+        let name = self.new_name("let")?;
+        self.expect(&TokenKind::Assign, || {
+            format!("`=` after `let {}`", name.text)
+        })?;
         let what = format!("a number or a vector after `let {} =`", name.text);
         let value = self.expr_expecting(&what)?;
         Ok(Stmt::Let { name, value })
@@ -782,29 +800,13 @@ impl<'t> Parser<'t> {
     fn for_loop(&mut self, ctx: &Ctx) -> Result<Stmt, FartError> {
         let pos = self.bump().pos;
         let var = self.new_name("for")?;
-        let t = self.bump();
-        if t.kind != TokenKind::Ident("in".to_string()) {
-            return Err(FartError::new(
-                t.pos,
-                format!(
-                    "expected `in` after `for {}`, found {}",
-                    var.text,
-                    t.kind.describe()
-                ),
-            ));
-        }
+        self.expect(&TokenKind::Ident("in".to_string()), || {
+            format!("`in` after `for {}`", var.text)
+        })?;
         let start = self.expr_expecting("the first number of the range after `in`")?;
-        let t = self.bump();
-        if t.kind != TokenKind::DotDot {
-            return Err(FartError::new(
-                t.pos,
-                format!(
-                    "expected `..` in the range of `for {}`, found {}",
-                    var.text,
-                    t.kind.describe()
-                ),
-            ));
-        }
+        self.expect(&TokenKind::DotDot, || {
+            format!("`..` in the range of `for {}`", var.text)
+        })?;
         let end = self.expr_expecting("the end of the range after `..`")?;
         let step = if self.peek().kind == TokenKind::Ident("step".to_string()) {
             self.bump();
@@ -812,18 +814,9 @@ impl<'t> Parser<'t> {
         } else {
             None
         };
-        let open = self.peek();
-        if open.kind != TokenKind::LBrace {
-            return Err(FartError::new(
-                open.pos,
-                format!(
-                    "expected `{{` or `step` after the range of `for {}`, found {}",
-                    var.text,
-                    open.kind.describe()
-                ),
-            ));
-        }
-        self.bump();
+        self.expect(&TokenKind::LBrace, || {
+            format!("`{{` or `step` after the range of `for {}`", var.text)
+        })?;
         let (body, _, _) = self.statements(&ctx.inner(), "for", pos)?;
         Ok(Stmt::For(ForLoop {
             pos,
@@ -841,17 +834,9 @@ impl<'t> Parser<'t> {
         let mut pos = self.bump().pos;
         loop {
             let cond = self.expr_expecting("a condition after `if`")?;
-            let open = self.peek();
-            if open.kind != TokenKind::LBrace {
-                return Err(FartError::new(
-                    open.pos,
-                    format!(
-                        "expected `{{` after the condition of `if`, found {}",
-                        open.kind.describe()
-                    ),
-                ));
-            }
-            self.bump();
+            self.expect(&TokenKind::LBrace, || {
+                "`{` after the condition of `if`".to_string()
+            })?;
             let (body, _, _) = self.statements(&ctx.inner(), "if", pos)?;
             branches.push((cond, body));
             if self.peek().kind != TokenKind::Ident("else".to_string()) {
@@ -1063,16 +1048,9 @@ impl<'t> Parser<'t> {
             "size" => ShapeItemKind::Size(self.expr_expecting("a vector after `size`")?),
             "position" => {
                 let normal = self.expr_expecting("the plane's normal vector after `position`")?;
-                let t = self.bump();
-                if t.kind != TokenKind::Comma {
-                    return Err(FartError::new(
-                        t.pos,
-                        format!(
-                            "expected `,` and the plane's distance after its normal, found {}",
-                            t.kind.describe()
-                        ),
-                    ));
-                }
+                self.expect(&TokenKind::Comma, || {
+                    "`,` and the plane's distance after its normal".to_string()
+                })?;
                 let d = self.expr_expecting("the plane's distance after `,`")?;
                 ShapeItemKind::PlanePosition { normal, d }
             }
@@ -1104,33 +1082,7 @@ impl<'t> Parser<'t> {
                     }
                 }
             }
-            "vertices" | "triangles" => {
-                let open = self.expect_open(word)?;
-                let mut list = Vec::new();
-                loop {
-                    let t = self.peek();
-                    match t.kind {
-                        TokenKind::RBrace => {
-                            self.bump();
-                            break;
-                        }
-                        TokenKind::Eof => return Err(Self::unclosed(word, open, t)),
-                        _ => {
-                            let what = if word == "vertices" {
-                                "a vector `<x, y, z>` or `}` in `vertices`"
-                            } else {
-                                "three point indices `<i, j, k>` or `}` in `triangles`"
-                            };
-                            list.push(self.expr_with(what, true)?);
-                        }
-                    }
-                }
-                if word == "vertices" {
-                    ShapeItemKind::Vertices(list)
-                } else {
-                    ShapeItemKind::Triangles(list)
-                }
-            }
+            "vertices" | "triangles" => self.mesh_list(word)?,
             other => {
                 return Err(FartError::new(
                     pos,
@@ -1139,6 +1091,35 @@ impl<'t> Parser<'t> {
             }
         };
         Ok(ShapeItem { pos, item })
+    }
+
+    /// The `{ ... }` list after `vertices` or `triangles` (`word`).
+    fn mesh_list(&mut self, word: &str) -> Result<ShapeItemKind, FartError> {
+        let open = self.expect_open(word)?;
+        let mut list = Vec::new();
+        loop {
+            let t = self.peek();
+            match t.kind {
+                TokenKind::RBrace => {
+                    self.bump();
+                    break;
+                }
+                TokenKind::Eof => return Err(Self::unclosed(word, open, t)),
+                _ => {
+                    let what = if word == "vertices" {
+                        "a vector `<x, y, z>` or `}` in `vertices`"
+                    } else {
+                        "three point indices `<i, j, k>` or `}` in `triangles`"
+                    };
+                    list.push(self.expr_with(what, true)?);
+                }
+            }
+        }
+        Ok(if word == "vertices" {
+            ShapeItemKind::Vertices(list)
+        } else {
+            ShapeItemKind::Triangles(list)
+        })
     }
 
     // ---- expressions ----
@@ -1187,73 +1168,65 @@ impl<'t> Parser<'t> {
     }
 
     fn or_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.and_expr(nc)?;
-        while self.peek().kind == TokenKind::OrOr {
-            let op = self.bump().pos;
-            let b = self.operand("||", nc, Self::and_expr)?;
-            a = Self::binary(BinaryOp::Or, op, a, b)?;
-        }
-        Ok(a)
+        self.left_assoc(nc, Self::and_expr, |k| {
+            (*k == TokenKind::OrOr).then_some(BinaryOp::Or)
+        })
     }
 
     fn and_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.cmp_expr(nc)?;
-        while self.peek().kind == TokenKind::AndAnd {
-            let op = self.bump().pos;
-            let b = self.operand("&&", nc, Self::cmp_expr)?;
-            a = Self::binary(BinaryOp::And, op, a, b)?;
-        }
-        Ok(a)
+        self.left_assoc(nc, Self::cmp_expr, |k| {
+            (*k == TokenKind::AndAnd).then_some(BinaryOp::And)
+        })
     }
 
+    /// Comparisons, unless `nc` (inside `< >`, where `<` and `>` close the vector).
     fn cmp_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.add_expr(nc)?;
         if nc {
-            return Ok(a);
+            return self.add_expr(nc);
         }
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Less => BinaryOp::Lt,
-                TokenKind::LessEq => BinaryOp::Le,
-                TokenKind::Greater => BinaryOp::Gt,
-                TokenKind::GreaterEq => BinaryOp::Ge,
-                TokenKind::EqEq => BinaryOp::Eq,
-                TokenKind::NotEq => BinaryOp::Ne,
-                _ => return Ok(a),
-            };
-            let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::add_expr)?;
-            a = Self::binary(op, pos, a, b)?;
-        }
+        self.left_assoc(nc, Self::add_expr, |k| match k {
+            TokenKind::Less => Some(BinaryOp::Lt),
+            TokenKind::LessEq => Some(BinaryOp::Le),
+            TokenKind::Greater => Some(BinaryOp::Gt),
+            TokenKind::GreaterEq => Some(BinaryOp::Ge),
+            TokenKind::EqEq => Some(BinaryOp::Eq),
+            TokenKind::NotEq => Some(BinaryOp::Ne),
+            _ => None,
+        })
     }
 
     fn add_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.mul_expr(nc)?;
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Plus => BinaryOp::Add,
-                TokenKind::Minus => BinaryOp::Sub,
-                _ => return Ok(a),
-            };
-            let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::mul_expr)?;
-            a = Self::binary(op, pos, a, b)?;
-        }
+        self.left_assoc(nc, Self::mul_expr, |k| match k {
+            TokenKind::Plus => Some(BinaryOp::Add),
+            TokenKind::Minus => Some(BinaryOp::Sub),
+            _ => None,
+        })
     }
 
     fn mul_expr(&mut self, nc: bool) -> Result<Expr, FartError> {
-        let mut a = self.unary(nc)?;
-        loop {
-            let op = match self.peek().kind {
-                TokenKind::Star => BinaryOp::Mul,
-                TokenKind::Slash => BinaryOp::Div,
-                TokenKind::Percent => BinaryOp::Rem,
-                _ => return Ok(a),
-            };
+        self.left_assoc(nc, Self::unary, |k| match k {
+            TokenKind::Star => Some(BinaryOp::Mul),
+            TokenKind::Slash => Some(BinaryOp::Div),
+            TokenKind::Percent => Some(BinaryOp::Rem),
+            _ => None,
+        })
+    }
+
+    /// One level of left-associative operators: operands parsed by `next`, joined by the
+    /// operators `op` picks from the next token, as long as it picks one.
+    fn left_assoc(
+        &mut self,
+        nc: bool,
+        next: fn(&mut Self, bool) -> Result<Expr, FartError>,
+        op: fn(&TokenKind) -> Option<BinaryOp>,
+    ) -> Result<Expr, FartError> {
+        let mut a = next(self, nc)?;
+        while let Some(op) = op(&self.peek().kind) {
             let pos = self.bump().pos;
-            let b = self.operand(op.symbol(), nc, Self::unary)?;
+            let b = self.operand(op.symbol(), nc, next)?;
             a = Self::binary(op, pos, a, b)?;
         }
+        Ok(a)
     }
 
     /// The right operand of `symbol`, parsed by `next`.
@@ -1315,53 +1288,14 @@ impl<'t> Parser<'t> {
                 if self.peek().kind != TokenKind::LParen {
                     return Ok(leaf(ExprKind::Var(name.clone())));
                 }
-                let open = self.bump().pos;
-                self.enter(open)?;
-                let mut args = Vec::new();
-                if self.peek().kind == TokenKind::RParen {
-                    self.bump();
-                } else {
-                    loop {
-                        args.push(self.expr_expecting(&format!("an argument of `{name}`"))?);
-                        let sep = self.bump();
-                        match sep.kind {
-                            TokenKind::Comma => {}
-                            TokenKind::RParen => break,
-                            _ => {
-                                return Err(FartError::new(
-                                    sep.pos,
-                                    format!(
-                                    "expected `,` or `)` after an argument of `{name}`, found {}",
-                                    sep.kind.describe()
-                                ),
-                                ))
-                            }
-                        }
-                    }
-                }
-                self.leave();
-                let height = 1 + args.iter().map(|a| a.height).max().unwrap_or(0);
-                Ok(Expr {
-                    pos: t.pos,
-                    kind: ExprKind::Call(name.clone(), args),
-                    height,
-                })
+                self.call(name, t.pos)
             }
             TokenKind::LParen => {
                 self.enter(t.pos)?;
                 let mut inner = self.expr_expecting("an expression after `(`")?;
-                let close = self.bump();
-                if close.kind != TokenKind::RParen {
-                    return Err(FartError::new(
-                        close.pos,
-                        format!(
-                            "expected `)` to close the `(` at {}:{}, found {}",
-                            t.pos.line,
-                            t.pos.column,
-                            close.kind.describe()
-                        ),
-                    ));
-                }
+                self.expect(&TokenKind::RParen, || {
+                    format!("`)` to close the `(` at {}:{}", t.pos.line, t.pos.column)
+                })?;
                 self.leave();
                 inner.pos = t.pos;
                 Ok(inner)
@@ -1387,6 +1321,42 @@ impl<'t> Parser<'t> {
                 format!("expected a number or a vector, found {}", other.describe()),
             )),
         }
+    }
+
+    /// A call of the function `name` written at `pos`, after its name: the arguments in
+    /// parentheses.
+    fn call(&mut self, name: &str, pos: Pos) -> Result<Expr, FartError> {
+        let open = self.bump().pos;
+        self.enter(open)?;
+        let mut args = Vec::new();
+        if self.peek().kind == TokenKind::RParen {
+            self.bump();
+        } else {
+            loop {
+                args.push(self.expr_expecting(&format!("an argument of `{name}`"))?);
+                let sep = self.bump();
+                match sep.kind {
+                    TokenKind::Comma => {}
+                    TokenKind::RParen => break,
+                    _ => {
+                        return Err(FartError::new(
+                            sep.pos,
+                            format!(
+                                "expected `,` or `)` after an argument of `{name}`, found {}",
+                                sep.kind.describe()
+                            ),
+                        ))
+                    }
+                }
+            }
+        }
+        self.leave();
+        let height = 1 + args.iter().map(|a| a.height).max().unwrap_or(0);
+        Ok(Expr {
+            pos,
+            kind: ExprKind::Call(name.to_string(), args),
+            height,
+        })
     }
 
     fn vector_sep(&mut self, open: Pos, sep: &str, next: &str) -> Result<(), FartError> {

@@ -211,19 +211,31 @@ impl<'p> Reader<'p> {
         Ok(())
     }
 
+    /// The numbers on a `keyword` line before any comment: the first `N` parsed (the rest of
+    /// the array 0) and how many words there were in all.
+    fn numbers<const N: usize>(
+        &self,
+        line: usize,
+        words: std::str::SplitAsciiWhitespace<'_>,
+        keyword: &str,
+    ) -> Result<([f32; N], usize), LoadError> {
+        let mut v = [0.0f32; N];
+        let mut n = 0;
+        for w in words_before_comment(words) {
+            if n < N {
+                v[n] = parse_number(w).map_err(|m| self.at(line, format!("`{keyword}`: {m}")))?;
+            }
+            n += 1;
+        }
+        Ok((v, n))
+    }
+
     fn vertex(
         &mut self,
         line: usize,
         words: std::str::SplitAsciiWhitespace<'_>,
     ) -> Result<(), LoadError> {
-        let mut v = [0.0f32; 6];
-        let mut n = 0;
-        for w in words_before_comment(words) {
-            if n < v.len() {
-                v[n] = parse_number(w).map_err(|m| self.at(line, format!("`v`: {m}")))?;
-            }
-            n += 1;
-        }
+        let (v, n) = self.numbers::<6>(line, words, "v")?;
         let p = match n {
             3 | 6 => Vec3::new(v[0], v[1], v[2]),
             4 => {
@@ -257,14 +269,7 @@ impl<'p> Reader<'p> {
         line: usize,
         words: std::str::SplitAsciiWhitespace<'_>,
     ) -> Result<(), LoadError> {
-        let mut v = [0.0f32; 3];
-        let mut n = 0;
-        for w in words_before_comment(words) {
-            if n < 3 {
-                v[n] = parse_number(w).map_err(|m| self.at(line, format!("`vn`: {m}")))?;
-            }
-            n += 1;
-        }
+        let (v, n) = self.numbers::<3>(line, words, "vn")?;
         if n != 3 {
             return Err(self.at(line, format!("`vn`: expected 3 numbers (x y z), found {n}")));
         }

@@ -5,8 +5,8 @@
 //!
 //! - the **data file** (the output name given): `_SHD`, `_LIGHT`, `_PT` and `_TR` records as
 //!   `scenes/FORMATS.md` section 3 describes them (0-based indices), written by
-//!   [`crate::generate::write_data_file`];
-//! - a **`raytracer.cfg`** in the same folder (replacing one that is there) whose `$INPUT_DATA`
+//!   [`crate::datafile::write_data_file`];
+//! - a **`raytracer.cfg`** in the same folder, written by [`crate::config::write_config`], (replacing one that is there) whose `$INPUT_DATA`
 //!   names the data file and whose seed camera frames the mesh: it stands in front of the model
 //!   (on the −Y side), tilted 15° down, with zoom 1.5, far enough that the mesh's bounding sphere
 //!   fits the 640 × 480 image.
@@ -26,13 +26,14 @@
 //!
 //! Both files are written atomically (a temporary file in the same folder, renamed into place).
 
-use crate::generate::write_data_file;
+use crate::config::{write_config, Config};
+use crate::datafile::write_data_file;
+use crate::fs::write_text_atomically;
 use crate::obj::{read_obj_file, ObjFile, ObjMaterial};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
 use std::collections::HashMap;
 use std::fmt;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
@@ -187,7 +188,7 @@ pub fn convert_obj_with(
     let config_file = folder.join("raytracer.cfg");
 
     let obj = read_obj_file(input)?;
-    let (desc, mut warnings) = obj_to_scene(&obj, options);
+    let (desc, camera, mut warnings) = framed_scene(&obj, options);
     warnings.splice(0..0, obj.warnings.iter().cloned());
 
     let input_name = input
@@ -204,9 +205,9 @@ pub fn convert_obj_with(
     );
     let data = write_data_file(&desc, &header);
     let image_name = Path::new(data_name).with_extension("bmp");
-    let config = config_text(&desc, &input_name, data_name, &image_name.to_string_lossy());
-    write_file(output, &data)?;
-    write_file(&config_file, &config)?;
+    let config = config_text(&desc, &camera, &input_name, data_name, &image_name);
+    write_text_atomically(output, &data)?;
+    write_text_atomically(&config_file, &config)?;
 
     Ok(ConvertSummary {
         input: input.to_path_buf(),
@@ -228,13 +229,6 @@ fn same_file(a: &Path, b: &Path) -> bool {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
     }
-}
-
-fn write_file(path: &Path, text: &str) -> anyhow::Result<()> {
-    crate::output::write_atomically(path, |w| {
-        w.write_all(text.as_bytes())
-            .with_context(|| format!("{}: cannot write", path.display()))
-    })
 }
 
 /// The shader of an `.mtl` material: diffuse = `Kd` (0.8 grey if absent); ambient = 0.1 · `Ka`
@@ -273,6 +267,13 @@ pub fn y_up_to_z_up(p: Vec3) -> Vec3 {
 /// face has no material, one light and a seed camera that frames the mesh. Also returns warnings
 /// (materials whose transparency is dropped).
 pub fn obj_to_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, Vec<String>) {
+    let (desc, _, warnings) = framed_scene(obj, options);
+    (desc, warnings)
+}
+
+/// [`obj_to_scene`], also returning the seed camera the scene holds, so the configuration file
+/// is written from it without looking into [`SceneDesc::camera`] again.
+fn framed_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, SeedCamera, Vec<String>) {
     let mut warnings = Vec::new();
     let points: Vec<Vec3> = if options.y_up {
         obj.mesh.points.iter().map(|&p| y_up_to_z_up(p)).collect()
@@ -323,7 +324,7 @@ pub fn obj_to_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, Vec<
     desc.settings.width = IMAGE_SIZE.0;
     desc.settings.height = IMAGE_SIZE.1;
     desc.settings.background = BACKGROUND;
-    (desc, warnings)
+    (desc, camera, warnings)
 }
 
 /// The centre of the points' bounding box and half its diagonal (1 for an empty or flat-to-a-
@@ -361,30 +362,26 @@ pub fn framing_camera(centre: Vec3, radius: f32) -> SeedCamera {
     }
 }
 
-fn config_text(desc: &SceneDesc, input_name: &str, data_name: &str, image_name: &str) -> String {
-    let Camera::Seed(c) = desc.camera else {
-        // `obj_to_scene` always makes a seed camera.
-        return String::new();
-    };
-    let bg = desc.settings.background;
+/// The `raytracer.cfg` beside the data file: `desc`'s size and background, `camera`, the data
+/// file `data_name` and the image `image_name`.
+fn config_text(
+    desc: &SceneDesc,
+    camera: &SeedCamera,
+    input_name: &str,
+    data_name: &str,
+    image_name: &Path,
+) -> String {
     let input_name = input_name.replace(['\n', '\r'], " ");
-    format!(
-        "REM Converted from {input_name} by `strahl convert`; the camera frames the mesh.\n\
-         $IMAGE_NAME {image_name}\n$IMAGE_WIDTH {}\n$IMAGE_HEIGHT {}\n\
-         $INPUT_DATA {data_name}\n$SHADOWS 1\n$REFLECTIONS 1\n\
-         $COLOR_BG_R {}\n$COLOR_BG_G {}\n$COLOR_BG_B {}\n\
-         $CAM_POS_X {}\n$CAM_POS_Y {}\n$CAM_POS_Z {}\n\
-         $CAM_POS_ANGLE_X {}\n$CAM_POS_ANGLE_Z {}\n$CAM_POS_ZOOM {}\nQUIT\n",
-        desc.settings.width,
-        desc.settings.height,
-        bg.x,
-        bg.y,
-        bg.z,
-        c.position.x,
-        c.position.y,
-        c.position.z,
-        c.angle_x_deg,
-        c.angle_z_deg,
-        c.zoom
-    )
+    let cfg = Config {
+        image_name: Some(image_name.to_path_buf()),
+        width: desc.settings.width,
+        height: desc.settings.height,
+        input_data: Some(PathBuf::from(data_name)),
+        background: desc.settings.background,
+        camera: *camera,
+        ..Config::default()
+    };
+    let comment =
+        format!("Converted from {input_name} by `strahl convert`; the camera frames the mesh.");
+    write_config(&cfg, &comment)
 }

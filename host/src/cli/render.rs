@@ -1,79 +1,32 @@
-//! The `strahl` command line: its arguments ([`Cli`]) and the `render` subcommand.
+//! `strahl render`: its arguments ([`RenderArgs`], with the workers' options in
+//! [`ClusterArgs`]) and its run: load the scene ([`crate::formats::load`]), check the outputs,
+//! prepare the scene and start the workers ([`crate::cluster`], [`crate::executor`]), render
+//! through the master while [`super::progress`] draws, write the image
+//! ([`crate::output`]) and the statistics, and print [`super::summary`].
 //!
-//! Each subcommand is one variant of [`Command`] holding its own argument struct; its run function
-//! lives with it (here for `render`, in its own module for the others), and [`run`] dispatches.
-//! To add a subcommand: add a variant `Name(crate::name::NameArgs)` with a doc comment (its help
-//! line) and a match arm calling `crate::name::run(args)`.
+//! The clap types stay here: the executor takes a plain [`WorkerSources`] and the master plain
+//! [`MasterOptions`], both made from the arguments by [`ClusterArgs::sources`] and
+//! [`RenderArgs::master_options`].
 
+use super::progress::Progress;
+use super::summary::{RenderStats, RenderSummary};
 use crate::cluster::master::{run_master, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
-use crate::executor::{start_workers, ClusterArgs};
-use crate::load::{load_scene, Overrides};
-use crate::output::{check_output_path, write_atomically, write_image};
-use crate::progress::{format_ray_rate, Progress};
-use crate::summary::{RenderStats, RenderSummary};
+use crate::executor::{start_workers, WorkerSources};
+use crate::formats::fs::write_atomically;
+use crate::formats::load::{load_scene, LoadedScene, Overrides};
+use crate::output::{check_output_path, write_image};
 use anyhow::anyhow;
-use clap::{Args, Parser, Subcommand};
+use clap::Args;
 use std::io::Write as _;
 use std::num::NonZeroUsize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
-
-/// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
-#[derive(Debug, Parser)]
-#[command(name = "strahl", version, propagate_version = true)]
-pub struct Cli {
-    /// What to do.
-    #[command(subcommand)]
-    pub command: Command,
-}
-
-/// The subcommands.
-#[derive(Debug, Subcommand)]
-pub enum Command {
-    /// Render a scene (.fart, .nff, or the seed's configuration file) to an image.
-    Render(RenderArgs),
-    /// Convert a Wavefront OBJ mesh to the seed's data format, with a raytracer.cfg beside it.
-    Convert(ConvertArgs),
-    /// Write a generated scene: the demo room's ROOM.txt or the large benchmark scene.
-    Generate(crate::generate::GenerateArgs),
-    /// Measure octree build time and size, and rays per second, on the large generated scene.
-    Bench(crate::bench::BenchArgs),
-    /// Serve masters as a render worker, over TCP (listening or dialling) or a serial port.
-    Worker(crate::worker::WorkerArgs),
-}
-
-/// Arguments of `strahl convert`.
-#[derive(Debug, Args)]
-pub struct ConvertArgs {
-    /// The OBJ file (its .mtl materials are used when present).
-    #[arg(value_name = "MODEL.obj")]
-    pub input: PathBuf,
-
-    /// The data file to write; a raytracer.cfg that frames the model is written beside it.
-    #[arg(short, long, value_name = "DATA.txt")]
-    pub output: PathBuf,
-
-    /// Keep the OBJ's coordinates instead of turning its Y-up into the seed's Z-up.
-    #[arg(long)]
-    pub z_up: bool,
-}
-
-/// `strahl convert`: the OBJ as the seed's data file and a configuration file for it.
-///
-/// # Errors
-/// A bad or unreadable OBJ or .mtl (naming the file and line) or a file that cannot be written.
-pub fn run_convert(args: &ConvertArgs) -> anyhow::Result<()> {
-    let options = crate::convert::ConvertOptions { y_up: !args.z_up };
-    let summary = crate::convert::convert_obj_with(&args.input, &args.output, &options)?;
-    eprint!("{summary}");
-    Ok(())
-}
 
 /// The most worker threads `--workers` accepts.
 pub const MAX_WORKERS: u32 = 1024;
@@ -253,17 +206,70 @@ pub fn parse_switch(s: &str) -> Result<bool, String> {
     }
 }
 
-/// Runs the subcommand `cli` names.
+/// The command-line options that choose a render's workers and tune the master.
+#[derive(Clone, Debug, Default, Args)]
+pub struct ClusterArgs {
+    /// A TCP worker listening at HOST[:PORT] (default port 7415); repeatable.
+    #[arg(long = "worker", value_name = "HOST[:PORT]")]
+    pub worker: Vec<String>,
+
+    /// A hosts file (one HOST[:PORT] per line, `#` comments): the workers to dial, or with
+    /// --launch the hosts to start workers on.
+    #[arg(long, value_name = "FILE")]
+    pub hosts: Option<PathBuf>,
+
+    /// Accept workers that dial in (`strahl worker --connect`) at HOST[:PORT]; port 0 picks a
+    /// free one.
+    #[arg(long, value_name = "HOST[:PORT]")]
+    pub listen: Option<String>,
+
+    /// Start one worker per hosts-file line with this shell command; `{host}` is replaced by the
+    /// host, `{master}` by the address workers dial (e.g. `ssh {host} strahl worker --connect
+    /// {master}`). Listens on --listen, or on a free port of all interfaces.
+    #[arg(long, value_name = "TEMPLATE", requires = "hosts")]
+    pub launch: Option<String>,
+
+    /// A serial worker at PATH[:BAUD] (default 115200 baud); repeatable.
+    #[arg(long = "serial", value_name = "PATH[:BAUD]")]
+    pub serial: Vec<String>,
+
+    /// Line requests each worker has outstanding; 1 is the seed's one line at a time.
+    #[arg(long, value_name = "N", default_value_t = 2,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub window: u32,
+
+    /// Seconds a worker with work may stay silent before it counts as hung and its lines go to
+    /// others; also how long a listening master waits with no worker.
+    #[arg(long, value_name = "SECS", default_value_t = 60.0, value_parser = positive_seconds)]
+    pub worker_timeout: f64,
+}
+
+/// Parses a positive, finite number of seconds.
 ///
 /// # Errors
-/// Whatever the subcommand reports; the messages are meant for the user.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
-    match cli.command {
-        Command::Render(args) => run_render(&args),
-        Command::Convert(args) => run_convert(&args),
-        Command::Generate(args) => crate::generate::run(&args),
-        Command::Bench(args) => crate::bench::run_command(&args),
-        Command::Worker(args) => crate::worker::run(&args),
+/// A message if the text is not such a number.
+pub fn positive_seconds(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1e6 => Ok(v),
+        _ => Err("expected a number of seconds greater than 0".to_string()),
+    }
+}
+
+impl ClusterArgs {
+    /// Whether any worker outside this process is named.
+    pub fn has_remote(&self) -> bool {
+        self.sources().has_remote()
+    }
+
+    /// The workers named, for [`start_workers`].
+    pub fn sources(&self) -> WorkerSources {
+        WorkerSources {
+            worker: self.worker.clone(),
+            hosts: self.hosts.clone(),
+            listen: self.listen.clone(),
+            launch: self.launch.clone(),
+            serial: self.serial.clone(),
+        }
     }
 }
 
@@ -305,19 +311,19 @@ impl RenderArgs {
             probe_interval: (timeout / 4).min(Duration::from_secs(2)),
             worker_timeout: timeout,
             wait_for_workers: timeout,
-            name: crate::worker::host_name(),
+            name: crate::util::sys::host_name(),
         }
     }
 }
 
-/// `strahl render`: load, check the output path, build the octree, start or reach the workers,
+/// Runs `strahl render`: load, check the output path, build the octree, start or reach the workers,
 /// render through the master, write the image, print the summary.
 ///
 /// # Errors
 /// A message naming the file (and line) at fault, the output path that cannot be written, a
 /// worker option that cannot be used, or the workers lost before the image was complete (then
 /// no image is written).
-pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
     let loaded = load_scene(&args.config, &args.overrides())?;
     let load = start.elapsed();
@@ -328,13 +334,7 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     }
 
     let build_start = Instant::now();
-    let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {
-        let file = match e {
-            PrepareError::Scene(SceneError::BadImageSize) => &loaded.config_path,
-            _ => &loaded.data_path,
-        };
-        anyhow!("{}: {e}", file.display())
-    })?;
+    let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
     let scene = &prepared.scene;
     let settings = scene.settings;
@@ -345,18 +345,13 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
             progress.println(&format!("warning: {msg}"));
         }
     };
-    if scene.degenerate_triangles > 0 {
-        warn(&format!(
-            "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
-            loaded.data_path.display(),
-            scene.degenerate_triangles,
-            scene.triangle_points.len() + scene.solids.mesh_triangle_count()
-        ));
-    }
-    if args.aa_threshold.is_some() && settings.samples < 2 {
-        warn("--aa-threshold has no effect at multisample 1: give -m 2 or more to supersample the pixels it flags");
-    }
-    let mut workers = start_workers(&args.cluster, args.worker_count(), &prepared, &warn)?;
+    warn_about_scene(args, &loaded, &prepared, &warn);
+    let mut workers = start_workers(
+        &args.cluster.sources(),
+        args.worker_count(),
+        &prepared,
+        &warn,
+    )?;
     let render_start = Instant::now();
     let image = run_master(
         &prepared.job(),
@@ -394,21 +389,61 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
     };
     if let Some(path) = &args.stats_json {
         let stats = RenderStats::new(&summary, settings.samples, scene.effects, &image.workers);
-        let json = serde_json::to_string_pretty(&stats)? + "\n";
-        let written = write_atomically(path, |w| {
-            w.write_all(json.as_bytes())
-                .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
-        });
-        if let Err(e) = written {
-            // All or nothing: no image without its statistics.
-            let _ = std::fs::remove_file(&loaded.output);
-            return Err(e);
-        }
+        write_stats(path, &stats, &loaded.output)?;
     }
     if !args.quiet {
         eprintln!("{summary}");
         eprintln!("effects: {}", scene.effects.describe());
-        eprint!("{}", WorkerTable(&image.workers, format_ray_rate));
+        eprint!("{}", WorkerTable(&image.workers));
+    }
+    Ok(())
+}
+
+/// The scene prepared for rendering (checked, octree built); an error names the configuration
+/// file for a bad image size and the data file for anything else.
+fn prepare(loaded: &LoadedScene) -> anyhow::Result<PreparedScene> {
+    PreparedScene::new(&loaded.desc, &OctreeParams::default()).map_err(|e| {
+        let file = match e {
+            PrepareError::Scene(SceneError::BadImageSize) => &loaded.config_path,
+            _ => &loaded.data_path,
+        };
+        anyhow!("{}: {e}", file.display())
+    })
+}
+
+/// Warns about what renders but is likely not meant: triangles that can never be hit, and an
+/// `--aa-threshold` with nothing to supersample.
+fn warn_about_scene(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    prepared: &PreparedScene,
+    warn: &dyn Fn(&str),
+) {
+    let scene = &prepared.scene;
+    if scene.degenerate_triangles > 0 {
+        warn(&format!(
+            "{}: {} of {} triangles have zero area (collinear or repeated points) and are never hit",
+            loaded.data_path.display(),
+            scene.degenerate_triangles,
+            scene.triangle_points.len() + scene.solids.mesh_triangle_count()
+        ));
+    }
+    if args.aa_threshold.is_some() && scene.settings.samples < 2 {
+        warn("--aa-threshold has no effect at multisample 1: give -m 2 or more to supersample the pixels it flags");
+    }
+}
+
+/// Writes the statistics as JSON to `path`; if that fails, removes the image at `image` too
+/// (all or nothing: no image without its statistics).
+fn write_stats(path: &Path, stats: &RenderStats, image: &Path) -> anyhow::Result<()> {
+    let json = serde_json::to_string_pretty(stats)? + "\n";
+    let written = write_atomically(path, |w| {
+        w.write_all(json.as_bytes())
+            .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
+    });
+    if let Err(e) = written {
+        let _ = std::fs::remove_file(image);
+        return Err(e);
     }
     Ok(())
 }
@@ -416,20 +451,6 @@ pub fn run_render(args: &RenderArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::CommandFactory as _;
-
-    #[test]
-    fn cli_is_consistent() {
-        Cli::command().debug_assert();
-    }
-
-    #[test]
-    fn dash_h_is_height_and_help_stays_long() {
-        let help = Cli::try_parse_from(["strahl", "render", "--help"]);
-        assert!(matches!(help, Err(e) if e.kind() == clap::error::ErrorKind::DisplayHelp));
-        let short = Cli::try_parse_from(["strahl", "render", "a.fart", "-h"]);
-        assert!(short.is_err(), "-h needs a height");
-    }
 
     #[test]
     fn switches() {
@@ -440,82 +461,5 @@ mod tests {
         assert!(parse_switch("yes").is_err());
         assert!(parse_switch("ON").is_err());
         assert!(parse_switch("").is_err());
-    }
-
-    #[test]
-    fn parses_render() -> anyhow::Result<()> {
-        let cli = Cli::try_parse_from([
-            "strahl",
-            "render",
-            "a.cfg",
-            "-o",
-            "x.png",
-            "--width",
-            "7",
-            "--shadows",
-            "off",
-            "--reflections",
-            "1",
-            "--workers",
-            "3",
-            "--index-base",
-            "1",
-            "-h",
-            "9",
-            "-m",
-            "3",
-            "-f",
-            "60",
-            "-d",
-            "4",
-            "-a",
-            "2",
-            "-p",
-            "--quiet",
-        ])?;
-        let a = match cli.command {
-            Command::Render(a) => a,
-            #[allow(unreachable_patterns)]
-            _ => anyhow::bail!("parsed as another subcommand"),
-        };
-        let o = a.overrides();
-        assert_eq!(a.config, PathBuf::from("a.cfg"));
-        assert_eq!(o.output, Some(PathBuf::from("x.png")));
-        assert_eq!((o.width, o.height), (Some(7), Some(9)));
-        assert_eq!(
-            (
-                o.samples,
-                o.field_of_view,
-                o.max_depth,
-                o.ambient_occlusion,
-                o.preview
-            ),
-            (Some(3), Some(60.0), Some(4), Some(2), true)
-        );
-        assert_eq!(
-            (o.shadows, o.reflections, o.index_base),
-            (Some(false), Some(true), Some(1))
-        );
-        assert_eq!(a.worker_count(), 3);
-        assert!(a.quiet);
-        for bad in [
-            &["--workers", "1025"][..],
-            &["--window", "0"],
-            &["--worker-timeout", "0"],
-            &["--launch", "x"],
-            &["--index-base", "2"],
-            &["--width", "0"],
-            &["--shadows", "maybe"],
-            &["-m", "0"],
-            &["-m", "17"],
-            &["-a", "10"],
-            &["-f", "180"],
-            &["-f", "0"],
-        ] {
-            let mut argv = vec!["strahl", "render", "a.cfg"];
-            argv.extend_from_slice(bad);
-            assert!(Cli::try_parse_from(argv).is_err(), "{bad:?}");
-        }
-        Ok(())
     }
 }

@@ -1,8 +1,12 @@
-//! The configuration file `raytracer.cfg` (seed section 2.5), as `scenes/FORMATS.md` specifies it.
+//! The configuration file `raytracer.cfg` (seed section 2.5), as `scenes/FORMATS.md` specifies it:
+//! its reader ([`read_config`], [`parse_config`]) and its writer ([`write_config`]), both over
+//! [`Config`]. `strahl convert` and `strahl generate large` write through [`write_config`], so the
+//! file they write is the file this module reads.
 
 use crate::error::LoadError;
 use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::camera::SeedCamera;
 use strahl_core::scene::MAX_IMAGE_SIDE;
@@ -69,6 +73,52 @@ pub fn parse_config(path: &Path, text: &str) -> Result<Config, LoadError> {
         apply(&mut cfg, &line)?;
     }
     Ok(cfg)
+}
+
+/// The text of a configuration file that sets everything `cfg` holds, after `comment` as `REM`
+/// lines: the image name and data file when given, the size, shadows, reflections, background
+/// and camera, then `QUIT`. `$INDEX_BASE` is written only when it is not 0. Numbers are written
+/// so they read back to the same `f32`.
+pub fn write_config(cfg: &Config, comment: &str) -> String {
+    let mut s = String::new();
+    for line in comment.lines() {
+        let _ = writeln!(s, "REM {line}");
+    }
+    if let Some(name) = &cfg.image_name {
+        let _ = writeln!(s, "$IMAGE_NAME {}", name.display());
+    }
+    let _ = writeln!(
+        s,
+        "$IMAGE_WIDTH {}\n$IMAGE_HEIGHT {}",
+        cfg.width, cfg.height
+    );
+    if let Some(data) = &cfg.input_data {
+        let _ = writeln!(s, "$INPUT_DATA {}", data.display());
+    }
+    if cfg.index_base != 0 {
+        let _ = writeln!(s, "$INDEX_BASE {}", cfg.index_base);
+    }
+    let (shadows, reflections) = (u8::from(cfg.shadows), u8::from(cfg.reflections));
+    let _ = writeln!(s, "$SHADOWS {shadows}\n$REFLECTIONS {reflections}");
+    let bg = cfg.background;
+    let _ = writeln!(
+        s,
+        "$COLOR_BG_R {}\n$COLOR_BG_G {}\n$COLOR_BG_B {}",
+        bg.x, bg.y, bg.z
+    );
+    let c = &cfg.camera;
+    let p = c.position;
+    let _ = writeln!(
+        s,
+        "$CAM_POS_X {}\n$CAM_POS_Y {}\n$CAM_POS_Z {}",
+        p.x, p.y, p.z
+    );
+    let _ = writeln!(
+        s,
+        "$CAM_POS_ANGLE_X {}\n$CAM_POS_ANGLE_Z {}\n$CAM_POS_ZOOM {}\nQUIT",
+        c.angle_x_deg, c.angle_z_deg, c.zoom
+    );
+    s
 }
 
 /// The single value of `line`, after checking there is exactly one.

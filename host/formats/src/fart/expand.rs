@@ -17,7 +17,7 @@
 //! triangles, CSG nesting up to [`MAX_CSG_DEPTH`].
 
 use super::parser::{
-    BinaryOp, Definable, Expr, ExprKind, ForLoop, IfChain, MaterialAst, SceneAst, Setting,
+    BinaryOp, Definable, Expr, ExprKind, ForLoop, IfChain, MaterialAst, Name, SceneAst, Setting,
     SettingValue, SettingsBlock, ShapeAst, ShapeItem, ShapeItemKind, ShapeKind, Stmt,
     TransformKind, UnaryOp, FUNCTIONS,
 };
@@ -185,6 +185,69 @@ impl Div<f64> for DVec3 {
     fn div(self, s: f64) -> DVec3 {
         self.zip(self, |a, _| a / s)
     }
+}
+
+/// Checks a block `word` that a scene holds at most once, at scene level (`top`): `first` is
+/// where an earlier one was; `expected` says how many may be written. Returns the block's place.
+fn once(first: Option<Pos>, b: &SettingsBlock, top: bool, word: &str, expected: &str) -> Res<Pos> {
+    if !top {
+        return err(b.pos, format!("`{word}` does not belong in a CSG node"));
+    }
+    if let Some(first) = first {
+        return err(
+            b.pos,
+            format!(
+                "expected {expected}, found a second one (the first is at {}:{})",
+                first.line, first.column
+            ),
+        );
+    }
+    Ok(b.pos)
+}
+
+/// The shapes that are neither CSG nor a use of a definition: [`ShapeKind`] less those two, so
+/// that building their node needs no arm for a kind handled elsewhere.
+#[derive(Clone, Copy, Debug)]
+enum Primitive {
+    Sphere,
+    Plane,
+    Box,
+    Cyl,
+    Mesh,
+}
+
+/// The items of one shape's block, as [`Expander::shape_items`] read them.
+struct ShapeItems<'a> {
+    /// The transforms, composed in the order written.
+    transform: Transform,
+    material: Option<Shader>,
+    radius: Option<f32>,
+    /// The size and where it was written.
+    size: Option<(DVec3, Pos)>,
+    /// A plane's unit normal and distance.
+    plane: Option<(Vec3, f32)>,
+    file: Option<(String, Pos)>,
+    vertices: Option<(&'a Vec<Expr>, Pos)>,
+    triangles: Option<(&'a Vec<Expr>, Pos)>,
+}
+
+/// The cylinder (cone frustum) of `size <bottom radius, top radius, height>` written at `pos`.
+fn cylinder((v, pos): (DVec3, Pos)) -> Res<Shape> {
+    let s = vec3_of(v, pos)?;
+    if s.x < 0.0 || s.y < 0.0 || s.x.max(s.y) <= 0.0 || s.z <= 0.0 {
+        return err(
+            pos,
+            format!(
+                "expected <bottom radius, top radius, height> with radii at least 0 (not both 0) and a positive height after `size`, found {}",
+                show_vec(v)
+            ),
+        );
+    }
+    Ok(Shape::Cylinder {
+        bottom_radius: s.x,
+        top_radius: s.y,
+        height: s.z,
+    })
 }
 
 fn show_num(v: f64) -> String {
@@ -624,19 +687,13 @@ impl Expander {
     }
 
     fn options(&mut self, b: &SettingsBlock, top: bool) -> Res<()> {
-        if !top {
-            return err(b.pos, "`options` does not belong in a CSG node");
-        }
-        if let Some(first) = self.options {
-            return err(
-                b.pos,
-                format!(
-                    "expected one `options` block, found a second one (the first is at {}:{})",
-                    first.line, first.column
-                ),
-            );
-        }
-        self.options = Some(b.pos);
+        self.options = Some(once(
+            self.options,
+            b,
+            top,
+            "options",
+            "one `options` block",
+        )?);
         let k = Keyed::new(b, "options")?;
         let mut s = RenderSettings::default();
         if let Some(v) = k.get("width") {
@@ -662,19 +719,7 @@ impl Expander {
     }
 
     fn camera(&mut self, b: &SettingsBlock, top: bool) -> Res<()> {
-        if !top {
-            return err(b.pos, "`camera` does not belong in a CSG node");
-        }
-        if let Some(first) = self.camera {
-            return err(
-                b.pos,
-                format!(
-                    "expected exactly one `camera`, found a second one (the first is at {}:{})",
-                    first.line, first.column
-                ),
-            );
-        }
-        self.camera = Some(b.pos);
+        self.camera = Some(once(self.camera, b, top, "camera", "exactly one `camera`")?);
         let k = Keyed::new(b, "camera")?;
         let required = |key: &str| {
             k.get(key).ok_or_else(|| {
@@ -777,26 +822,7 @@ impl Expander {
 
     fn material(&self, m: &MaterialAst) -> Res<Shader> {
         let b = match m {
-            MaterialAst::Named(name) => {
-                return match self.lookup(&name.text) {
-                    Some(Value::Material(sh)) => Ok(*sh),
-                    Some(other) => err(
-                        name.pos,
-                        format!(
-                            "expected a material after `material`, found `{}`, which is {}",
-                            name.text,
-                            other.describe()
-                        ),
-                    ),
-                    None => err(
-                        name.pos,
-                        format!(
-                            "expected a material after `material`, found `{}`, which is not defined (write `define {} material {{ ... }}` before it)",
-                            name.text, name.text
-                        ),
-                    ),
-                }
-            }
+            MaterialAst::Named(name) => return self.named_material(name),
             MaterialAst::Block(b) => b,
         };
         let k = Keyed::new(b, "material")?;
@@ -836,7 +862,43 @@ impl Expander {
                 ),
             );
         }
-        let ior = match k.get("ior") {
+        let ior = self.ior_setting(&k)?;
+        Ok(Shader {
+            ambient: color * ambient,
+            diffuse: color * diffuse,
+            specular: Vec3::splat(specular),
+            shininess,
+            reflection,
+            transparency,
+            ior,
+        })
+    }
+
+    /// The material defined as `name`.
+    fn named_material(&self, name: &Name) -> Res<Shader> {
+        match self.lookup(&name.text) {
+            Some(Value::Material(sh)) => Ok(*sh),
+            Some(other) => err(
+                name.pos,
+                format!(
+                    "expected a material after `material`, found `{}`, which is {}",
+                    name.text,
+                    other.describe()
+                ),
+            ),
+            None => err(
+                name.pos,
+                format!(
+                    "expected a material after `material`, found `{}`, which is not defined (write `define {} material {{ ... }}` before it)",
+                    name.text, name.text
+                ),
+            ),
+        }
+    }
+
+    /// A material's `ior` (1 when not given): a positive number.
+    fn ior_setting(&self, k: &Keyed<'_>) -> Res<f32> {
+        match k.get("ior") {
             Some(s) => {
                 let (v, pos) = self.num_setting(s, "a positive number")?;
                 if v <= 0.0 {
@@ -848,19 +910,10 @@ impl Expander {
                         ),
                     );
                 }
-                f32_of(v, pos)?
+                f32_of(v, pos)
             }
-            None => 1.0,
-        };
-        Ok(Shader {
-            ambient: color * ambient,
-            diffuse: color * diffuse,
-            specular: Vec3::splat(specular),
-            shininess,
-            reflection,
-            transparency,
-            ior,
-        })
+            None => Ok(1.0),
+        }
     }
 
     fn shader_id(&mut self, sh: Shader) -> u32 {
@@ -952,29 +1005,64 @@ impl Expander {
         })
     }
 
-    /// The shape value of `ast`.
+    /// The shape value of `ast`: a CSG node, a use of a defined shape, or a primitive.
     fn shape(&mut self, ast: &ShapeAst) -> Res<Rc<ShapeVal>> {
-        if let ShapeKind::Csg(op) = ast.kind {
-            return self.csg(ast, op);
-        }
-        let defined = match &ast.kind {
-            ShapeKind::Defined(name) => Some(self.definition(ast, name)?),
-            _ => None,
+        let primitive = match &ast.kind {
+            ShapeKind::Csg(op) => return self.csg(ast, *op),
+            ShapeKind::Defined(name) => return self.defined_use(ast, name),
+            ShapeKind::Sphere => Primitive::Sphere,
+            ShapeKind::Plane => Primitive::Plane,
+            ShapeKind::Box => Primitive::Box,
+            ShapeKind::Cyl => Primitive::Cyl,
+            ShapeKind::Mesh => Primitive::Mesh,
         };
-        let mut transform = Transform::IDENTITY;
-        let mut material = None;
+        let items = self.shape_items(ast)?;
+        let node = self.primitive_node(ast, primitive, &items)?;
+        let leaves = u64::from(matches!(node, Node::Leaf(_)));
+        Ok(Rc::new(ShapeVal {
+            pos: ast.pos,
+            transform: items.transform,
+            material: items.material,
+            node,
+            leaves,
+            depth: 0,
+        }))
+    }
+
+    /// A use of the shape defined as `name`: the definition's node with the use's transforms
+    /// after the definition's, and the use's material if it gives one.
+    fn defined_use(&mut self, ast: &ShapeAst, name: &str) -> Res<Rc<ShapeVal>> {
+        let def = self.definition(ast, name)?;
+        let items = self.shape_items(ast)?;
+        Ok(Rc::new(ShapeVal {
+            pos: ast.pos,
+            transform: items.transform.after(&def.transform),
+            material: items.material.or(def.material),
+            node: def.node.clone(),
+            leaves: def.leaves,
+            depth: def.depth,
+        }))
+    }
+
+    /// The items written in a shape's block, each checked on its own, in the order written;
+    /// an item given twice is an error at its second place.
+    fn shape_items<'a>(&mut self, ast: &'a ShapeAst) -> Res<ShapeItems<'a>> {
+        let mut items = ShapeItems {
+            transform: Transform::IDENTITY,
+            material: None,
+            radius: None,
+            size: None,
+            plane: None,
+            file: None,
+            vertices: None,
+            triangles: None,
+        };
         let mut seen: HashMap<&'static str, Pos> = HashMap::new();
-        let mut radius = None;
-        let mut size: Option<(DVec3, Pos)> = None;
-        let mut plane = None;
-        let mut file = None;
-        let mut vertices = None;
-        let mut triangles = None;
         let word = ast.kind.word();
         for it in &ast.items {
             let key = match &it.item {
                 ShapeItemKind::Transform(kind, e) => {
-                    transform = self.transform_step(*kind, e)?.after(&transform);
+                    items.transform = self.transform_step(*kind, e)?.after(&items.transform);
                     continue;
                 }
                 ShapeItemKind::Radius(_) => "radius",
@@ -996,86 +1084,104 @@ impl Expander {
             }
             match &it.item {
                 ShapeItemKind::Transform(..) => {}
-                ShapeItemKind::Radius(e) => {
-                    let r = self.num_item(e, "radius", "a positive number")?;
-                    let r32 = f32_of(r, e.pos)?;
-                    if r > 0.0 && r32 == 0.0 {
-                        return err(
-                            e.pos,
-                            format!(
-                                "the radius {} is too small: it rounds to 0 in single precision",
-                                show_num(r)
-                            ),
-                        );
-                    }
-                    if r32 <= 0.0 {
-                        return err(
-                            e.pos,
-                            format!(
-                                "expected a positive number after `radius`, found {}",
-                                show_num(r)
-                            ),
-                        );
-                    }
-                    radius = Some(r32);
-                }
-                ShapeItemKind::Size(e) => {
-                    let v = match (self.eval(e)?, &ast.kind) {
-                        (Value::Num(s), ShapeKind::Box) => DVec3::splat(s),
-                        (Value::Vector(v), _) => v,
-                        (other, ShapeKind::Box) => {
-                            return err(
-                                e.pos,
-                                format!(
-                                    "expected a vector <x, y, z> or a number after `size`, found {}",
-                                    other.describe()
-                                ),
-                            )
-                        }
-                        (other, _) => {
-                            return err(
-                                e.pos,
-                                format!(
-                                    "expected a vector <bottom radius, top radius, height> after `size`, found {}",
-                                    other.describe()
-                                ),
-                            )
-                        }
-                    };
-                    size = Some((v, e.pos));
-                }
+                ShapeItemKind::Radius(e) => items.radius = Some(self.radius_item(e)?),
+                ShapeItemKind::Size(e) => items.size = Some((self.size_item(e, &ast.kind)?, e.pos)),
                 ShapeItemKind::PlanePosition { normal, d } => {
-                    let n = self.vec_item(normal, "position", "a normal vector <nx, ny, nz>")?;
-                    let len = n.length();
-                    if len == 0.0 || !len.is_finite() {
-                        return err(
-                            normal.pos,
-                            format!(
-                                "expected a non-zero normal after `position`, found {}",
-                                show_vec(n)
-                            ),
-                        );
-                    }
-                    let dist = self.num_item(d, ",", "the plane's distance (a number)")?;
-                    let unit = vec3_of(n / len, normal.pos)?;
-                    plane = Some((unit, f32_of(dist / len, d.pos)?));
+                    items.plane = Some(self.plane_item(normal, d)?);
                 }
-                ShapeItemKind::Material(m) => material = Some(self.material(m)?),
-                ShapeItemKind::File(name) => file = Some((name.clone(), it.pos)),
-                ShapeItemKind::Vertices(list) => vertices = Some((list, it.pos)),
-                ShapeItemKind::Triangles(list) => triangles = Some((list, it.pos)),
+                ShapeItemKind::Material(m) => items.material = Some(self.material(m)?),
+                ShapeItemKind::File(name) => items.file = Some((name.clone(), it.pos)),
+                ShapeItemKind::Vertices(list) => items.vertices = Some((list, it.pos)),
+                ShapeItemKind::Triangles(list) => items.triangles = Some((list, it.pos)),
             }
         }
-        let node = match &ast.kind {
-            ShapeKind::Sphere => Node::Leaf(Shape::Sphere {
-                radius: radius.unwrap_or(1.0),
+        Ok(items)
+    }
+
+    /// The value of `radius e`: a positive number that stays positive in single precision.
+    fn radius_item(&self, e: &Expr) -> Res<f32> {
+        let r = self.num_item(e, "radius", "a positive number")?;
+        let r32 = f32_of(r, e.pos)?;
+        if r > 0.0 && r32 == 0.0 {
+            return err(
+                e.pos,
+                format!(
+                    "the radius {} is too small: it rounds to 0 in single precision",
+                    show_num(r)
+                ),
+            );
+        }
+        if r32 <= 0.0 {
+            return err(
+                e.pos,
+                format!(
+                    "expected a positive number after `radius`, found {}",
+                    show_num(r)
+                ),
+            );
+        }
+        Ok(r32)
+    }
+
+    /// The value of `size e` in a shape of `kind`: a vector, or for a box also a number (a cube).
+    fn size_item(&self, e: &Expr, kind: &ShapeKind) -> Res<DVec3> {
+        match (self.eval(e)?, kind) {
+            (Value::Num(s), ShapeKind::Box) => Ok(DVec3::splat(s)),
+            (Value::Vector(v), _) => Ok(v),
+            (other, ShapeKind::Box) => err(
+                e.pos,
+                format!(
+                    "expected a vector <x, y, z> or a number after `size`, found {}",
+                    other.describe()
+                ),
+            ),
+            (other, _) => err(
+                e.pos,
+                format!(
+                    "expected a vector <bottom radius, top radius, height> after `size`, found {}",
+                    other.describe()
+                ),
+            ),
+        }
+    }
+
+    /// The value of a plane's `position normal, d`: the unit normal and the distance scaled
+    /// with it.
+    fn plane_item(&self, normal: &Expr, d: &Expr) -> Res<(Vec3, f32)> {
+        let n = self.vec_item(normal, "position", "a normal vector <nx, ny, nz>")?;
+        let len = n.length();
+        if len == 0.0 || !len.is_finite() {
+            return err(
+                normal.pos,
+                format!(
+                    "expected a non-zero normal after `position`, found {}",
+                    show_vec(n)
+                ),
+            );
+        }
+        let dist = self.num_item(d, ",", "the plane's distance (a number)")?;
+        let unit = vec3_of(n / len, normal.pos)?;
+        Ok((unit, f32_of(dist / len, d.pos)?))
+    }
+
+    /// The node of a primitive shape from its items, with the documented defaults for what
+    /// they leave out.
+    fn primitive_node(
+        &mut self,
+        ast: &ShapeAst,
+        primitive: Primitive,
+        items: &ShapeItems<'_>,
+    ) -> Res<Node> {
+        Ok(match primitive {
+            Primitive::Sphere => Node::Leaf(Shape::Sphere {
+                radius: items.radius.unwrap_or(1.0),
             }),
-            ShapeKind::Plane => {
-                let (normal, d) = plane.unwrap_or((Vec3::Y, 0.0));
+            Primitive::Plane => {
+                let (normal, d) = items.plane.unwrap_or((Vec3::Y, 0.0));
                 Node::Leaf(Shape::Plane { normal, d })
             }
-            ShapeKind::Box => {
-                let (v, pos) = size.unwrap_or((DVec3::ONE, ast.pos));
+            Primitive::Box => {
+                let (v, pos) = items.size.unwrap_or((DVec3::ONE, ast.pos));
                 let s = vec3_of(v, pos)?;
                 if s.min_element() <= 0.0 {
                     return err(
@@ -1088,49 +1194,11 @@ impl Expander {
                 }
                 Node::Leaf(Shape::Cuboid { size: s })
             }
-            ShapeKind::Cyl => {
-                let (v, pos) = size.unwrap_or((DVec3::ONE, ast.pos));
-                let s = vec3_of(v, pos)?;
-                if s.x < 0.0 || s.y < 0.0 || s.x.max(s.y) <= 0.0 || s.z <= 0.0 {
-                    return err(
-                        pos,
-                        format!(
-                            "expected <bottom radius, top radius, height> with radii at least 0 (not both 0) and a positive height after `size`, found {}",
-                            show_vec(v)
-                        ),
-                    );
-                }
-                Node::Leaf(Shape::Cylinder {
-                    bottom_radius: s.x,
-                    top_radius: s.y,
-                    height: s.z,
-                })
+            Primitive::Cyl => Node::Leaf(cylinder(items.size.unwrap_or((DVec3::ONE, ast.pos)))?),
+            Primitive::Mesh => {
+                Node::Mesh(self.mesh(ast, items.file.clone(), items.vertices, items.triangles)?)
             }
-            ShapeKind::Mesh => Node::Mesh(self.mesh(ast, file, vertices, triangles)?),
-            ShapeKind::Defined(name) => {
-                let Some(def) = defined else {
-                    return err(ast.pos, format!("`{name}` is not defined"));
-                };
-                return Ok(Rc::new(ShapeVal {
-                    pos: ast.pos,
-                    transform: transform.after(&def.transform),
-                    material: material.or(def.material),
-                    node: def.node.clone(),
-                    leaves: def.leaves,
-                    depth: def.depth,
-                }));
-            }
-            ShapeKind::Csg(_) => return err(ast.pos, "internal: CSG handled above"),
-        };
-        let leaves = u64::from(matches!(node, Node::Leaf(_)));
-        Ok(Rc::new(ShapeVal {
-            pos: ast.pos,
-            transform,
-            material,
-            node,
-            leaves,
-            depth: 0,
-        }))
+        })
     }
 
     /// The shape `name` stands for, at its use `ast`, which may only add transforms and a

@@ -617,42 +617,7 @@ impl<'a> Parser<'a> {
     ) -> Result<(), LoadError> {
         let keyword = if with_normals { "pp" } else { "p" };
         let shader = self.current_shader(ln.number, keyword)?;
-        let count_word = words.next();
-        let extra = words.next();
-        let n = match (count_word.map(str::parse::<u32>), extra) {
-            (Some(Ok(n)), None) if n >= 3 => n,
-            (Some(Ok(n)), None) => {
-                return Err(self.error(
-                    ln.number,
-                    format!("`{keyword}`: a polygon needs at least 3 vertices, found {n}"),
-                ))
-            }
-            (None, _) => {
-                return Err(self.error(
-                    ln.number,
-                    format!("`{keyword}`: expected the number of vertices after `{keyword}`"),
-                ))
-            }
-            (Some(_), Some(w)) => {
-                return Err(self.error(
-                    ln.number,
-                    format!(
-                        "`{keyword}`: expected only the number of vertices, found `{w}` after \
-                         it (vertices go on the following lines)"
-                    ),
-                ))
-            }
-            (Some(Err(_)), None) => {
-                return Err(self.error(
-                    ln.number,
-                    format!(
-                        "`{keyword}`: `{}` is not a number of vertices (a whole number, 3 or \
-                         more)",
-                        count_word.unwrap_or("")
-                    ),
-                ))
-            }
-        };
+        let n = self.vertex_count(ln.number, keyword, &mut words)?;
         let (fields, expected) = if with_normals {
             ("x y z nx ny nz", "6 numbers")
         } else {
@@ -704,6 +669,44 @@ impl<'a> Parser<'a> {
             });
         }
         Ok(())
+    }
+
+    /// The vertex count after `p` or `pp` (`keyword`) on line `line`: a whole number, 3 or
+    /// more, alone on the line.
+    fn vertex_count(
+        &self,
+        line: usize,
+        keyword: &str,
+        words: &mut std::str::SplitAsciiWhitespace<'_>,
+    ) -> Result<u32, LoadError> {
+        let count_word = words.next();
+        let extra = words.next();
+        match (count_word.map(str::parse::<u32>), extra) {
+            (Some(Ok(n)), None) if n >= 3 => Ok(n),
+            (Some(Ok(n)), None) => Err(self.error(
+                line,
+                format!("`{keyword}`: a polygon needs at least 3 vertices, found {n}"),
+            )),
+            (None, _) => Err(self.error(
+                line,
+                format!("`{keyword}`: expected the number of vertices after `{keyword}`"),
+            )),
+            (Some(_), Some(w)) => Err(self.error(
+                line,
+                format!(
+                    "`{keyword}`: expected only the number of vertices, found `{w}` after \
+                         it (vertices go on the following lines)"
+                ),
+            )),
+            (Some(Err(_)), None) => Err(self.error(
+                line,
+                format!(
+                    "`{keyword}`: `{}` is not a number of vertices (a whole number, 3 or \
+                         more)",
+                    count_word.unwrap_or("")
+                ),
+            )),
+        }
     }
 
     fn finish(mut self) -> Result<SceneDesc, LoadError> {

@@ -4,12 +4,19 @@
 //! same scene again (or the next master with it) skips the transfer. A listening or serial
 //! worker outlives its masters: when one ends its session or disappears, it waits for the next.
 //! A dialling worker serves one render and exits, which suits launchers and batch schedulers.
+//!
+//! This module is argument handling: [`WorkerArgs`] become a [`NodeInfo`] (name, architecture,
+//! memory) and a choice of transport, and [`run`] hands them to the serving loops of
+//! `strahl_tcp` and `strahl_serial`, which run `strahl_core`'s worker protocol; it only turns
+//! each session's outcome into a line on stderr. So it lives with the command line, not with the
+//! master's side in [`crate::cluster`]. The host name it defaults to comes from
+//! [`crate::util::sys`], shared with the master.
 
+use crate::util::sys::{cut_name, host_name};
 use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
 use std::net::TcpListener;
 use std::time::Duration;
-use strahl_core::wire::MAX_NAME_LEN;
 use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 use strahl_tcp::SessionError;
 
@@ -50,26 +57,6 @@ pub struct WorkerArgs {
     /// How long a dialling worker keeps trying to reach its master, in seconds.
     #[arg(long, value_name = "SECS", default_value_t = 30)]
     pub patience: u64,
-}
-
-/// The host name, from the kernel or the environment, cut to [`MAX_NAME_LEN`] bytes.
-pub fn host_name() -> String {
-    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
-        .ok()
-        .or_else(|| std::env::var("HOSTNAME").ok())
-        .map(|s| s.trim().to_string())
-        .filter(|s| !s.is_empty())
-        .unwrap_or_else(|| "worker".to_string());
-    cut_name(&name)
-}
-
-/// `name` cut to at most [`MAX_NAME_LEN`] bytes on a character boundary.
-pub fn cut_name(name: &str) -> String {
-    let mut end = name.len().min(MAX_NAME_LEN);
-    while !name.is_char_boundary(end) {
-        end -= 1;
-    }
-    name[..end].to_string()
 }
 
 /// Memory the system reports available (`MemAvailable` in `/proc/meminfo`), if it does.

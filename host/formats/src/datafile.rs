@@ -1,11 +1,17 @@
 //! The data file (`ROOM.txt`, seed section 2.6): points, triangles, shaders and lights, as
 //! `scenes/FORMATS.md` specifies it.
+//!
+//! The reader ([`read_data`], [`parse_data`]) gives a [`SceneData`]; the writer
+//! ([`write_data_file`]) writes a [`SceneDesc`]'s geometry, shaders and lights in the same format.
+//! `strahl generate` and `strahl convert` write through it, so what they write is what this
+//! module reads.
 
 use crate::error::LoadError;
 use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
+use std::fmt::Write as _;
 use std::path::Path;
-use strahl_core::scene::{Light, Shader, TriangleDesc};
+use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// The most elements of one kind an `_OBJ` hint reserves room for; it is never trusted further.
 const RESERVE_CAP: usize = 1 << 20;
@@ -193,4 +199,66 @@ fn check_indices(
         }
     }
     Ok(())
+}
+
+/// Writes the geometry, shaders and lights of `desc` in the seed's data format (0-based indices),
+/// with `header` as `REM` lines. Numbers are written so they read back to the same `f32`.
+pub fn write_data_file(desc: &SceneDesc, header: &str) -> String {
+    let mut s = String::new();
+    for line in header.lines() {
+        let _ = writeln!(s, "REM {line}");
+    }
+    let _ = writeln!(
+        s,
+        "_OBJ {} {} {} {}",
+        desc.points.len(),
+        desc.triangles.len(),
+        desc.shaders.len(),
+        desc.lights.len()
+    );
+    // One `writeln!` per record kind, field by field: the records look alike but each lists its
+    // own fields in the order the reader above takes them.
+    for sh in &desc.shaders {
+        let _ = writeln!(
+            s,
+            "_SHD {} {} {} {} {} {} {} {} {} {} {}",
+            sh.ambient.x,
+            sh.ambient.y,
+            sh.ambient.z,
+            sh.diffuse.x,
+            sh.diffuse.y,
+            sh.diffuse.z,
+            sh.specular.x,
+            sh.specular.y,
+            sh.specular.z,
+            sh.shininess,
+            sh.reflection
+        );
+    }
+    for l in &desc.lights {
+        let _ = writeln!(
+            s,
+            "_LIGHT {} {} {} {} {} {} {} {}",
+            l.position.x,
+            l.position.y,
+            l.position.z,
+            l.color.x,
+            l.color.y,
+            l.color.z,
+            l.amount,
+            u8::from(l.casts_shadows)
+        );
+    }
+    for p in &desc.points {
+        let _ = writeln!(s, "_PT {} {} {}", p.x, p.y, p.z);
+    }
+    for t in &desc.triangles {
+        let _ = writeln!(
+            s,
+            "_TR {} {} {} {}",
+            t.points[0], t.points[1], t.points[2], t.shader
+        );
+    }
+    s.push_str("QUIT\n");
+    s
 }

@@ -1,0 +1,6 @@
+//! The neutral base every group of the host may use and that uses no group: the machine's name
+//! and the shared waits ([`sys`]), quantities as text ([`units`]). Atomic file writes are
+//! `strahl_formats::fs`, below every group.
+
+pub mod sys;
+pub mod units;

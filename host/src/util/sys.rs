@@ -1,0 +1,37 @@
+//! What the operating system says about this machine, and the waits the host side uses.
+//!
+//! [`host_name`] names this machine to its peers: a master puts it in its session header and in
+//! the address it gives launched workers, a worker gives it to its masters. Both sides take it
+//! from here, so neither the command line nor the cluster depends on the other for it.
+
+use std::time::Duration;
+use strahl_core::wire::MAX_NAME_LEN;
+
+/// How long connecting to a TCP worker may take before it counts as unreachable (the TCP
+/// transport's own dial limit, named once there).
+pub use strahl_tcp::CONNECT_TIMEOUT;
+
+/// How often a waiting thread looks again: the master's loop checks time-outs, a blocked pipe
+/// read whether the pipe was closed, a hung simulated worker whether its link was cut, a
+/// non-blocking accept for a new worker.
+pub const POLL_INTERVAL: Duration = Duration::from_millis(20);
+
+/// The host name, from the kernel or the environment, cut to [`MAX_NAME_LEN`] bytes.
+pub fn host_name() -> String {
+    let name = std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .ok()
+        .or_else(|| std::env::var("HOSTNAME").ok())
+        .map(|s| s.trim().to_string())
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| "worker".to_string());
+    cut_name(&name)
+}
+
+/// `name` cut to at most [`MAX_NAME_LEN`] bytes on a character boundary.
+pub fn cut_name(name: &str) -> String {
+    let mut end = name.len().min(MAX_NAME_LEN);
+    while !name.is_char_boundary(end) {
+        end -= 1;
+    }
+    name[..end].to_string()
+}

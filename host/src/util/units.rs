@@ -1,0 +1,32 @@
+//! Quantities as short text for people: ray rates in the progress bar, the summary and the
+//! worker table.
+
+/// `rays` traced in `secs` seconds, as a short rate such as `2.15 M rays/s`.
+pub fn format_ray_rate(rays: u64, secs: f64) -> String {
+    if secs <= 0.0 || !secs.is_finite() {
+        return "- rays/s".to_string();
+    }
+    let rate = rays as f64 / secs;
+    if rate >= 1e9 {
+        format!("{:.2} G rays/s", rate / 1e9)
+    } else if rate >= 1e6 {
+        format!("{:.2} M rays/s", rate / 1e6)
+    } else if rate >= 1e3 {
+        format!("{:.1} k rays/s", rate / 1e3)
+    } else {
+        format!("{rate:.0} rays/s")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rates() {
+        assert_eq!(format_ray_rate(2_150_000, 1.0), "2.15 M rays/s");
+        assert_eq!(format_ray_rate(1500, 1.0), "1.5 k rays/s");
+        assert_eq!(format_ray_rate(12, 2.0), "6 rays/s");
+        assert_eq!(format_ray_rate(12, 0.0), "- rays/s");
+    }
+}
