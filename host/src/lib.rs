@@ -2,8 +2,6 @@
 //!
 //! Modules (each helper adds its own `pub mod` line here):
 pub mod bench;
-pub mod bench_accuracy;
-pub mod bench_scaling;
 pub mod cli;
 pub mod cluster;
 pub mod config;

@@ -12,6 +12,7 @@
 //! Every time is the median of `--runs` runs; speedups are against the 1-worker time of the same
 //! column in the same run.
 
+use super::stats::median;
 use crate::cluster::link::Link;
 use crate::cluster::local::render_local;
 use crate::cluster::master::{run_master, ClusterImage, MasterOptions};
@@ -57,11 +58,6 @@ pub struct ScalingArgs {
     /// Skip the TCP worker processes (in-process and model only).
     #[arg(long)]
     pub no_tcp: bool,
-}
-
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v.get(v.len() / 2).copied().unwrap_or_default()
 }
 
 /// A `strahl worker` process on loopback, killed when dropped.

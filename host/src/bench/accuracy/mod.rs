@@ -33,6 +33,7 @@
 //! paragraph), `report` (the Markdown text), `plot` (the SVG) and `format` (numbers in
 //! text).
 
+use super::stats::median;
 use crate::cluster::local::render_local;
 use crate::cluster::prepared::PreparedScene;
 use crate::load::{load_scene, Overrides};
@@ -379,11 +380,6 @@ impl SceneRun {
         }
         worst
     }
-}
-
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v.get(v.len() / 2).copied().unwrap_or_default()
 }
 
 /// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
