@@ -1,7 +1,11 @@
 //! The conclusion that ends each knob's paragraph, computed from the measured rows: which
 //! differences the reference resolves (its residual), and what to pick and why.
 
-use super::*;
+use super::format::{fmt_ratio, fmt_ssim, join_values, sig3};
+use super::metrics::{rmse, through_8_bits, to_colors, Colors};
+use super::wire::WireBytes;
+use super::{Errors, Knob, Row, SceneRun};
+use std::fmt::Write as _;
 
 /// One setting of a knob as the conclusions see it.
 #[derive(Clone, Debug, PartialEq)]

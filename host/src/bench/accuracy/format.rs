@@ -1,6 +1,8 @@
 //! Number formatting for the report's tables and text.
 
-use super::*;
+use super::Row;
+use std::time::Duration;
+use strahl_core::scene::RenderSettings;
 
 /// `v` with three significant digits, without exponent.
 pub(super) fn sig3(v: f64) -> String {
@@ -113,6 +115,22 @@ pub(super) fn stdout_row(
         fmt_rays(rays),
         r.reference.name()
     )
+}
+
+/// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
+pub(super) fn percent(v: f32) -> String {
+    let p = format!("{:.2}", f64::from(v) * 100.0);
+    let p = p.trim_end_matches('0').trim_end_matches('.');
+    format!("{p} %")
+}
+
+/// Values joined as prose: `a`, `a and b`, `a, b and c`.
+pub(super) fn join_values(v: &[String]) -> String {
+    match v {
+        [] => String::new(),
+        [a] => a.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! Error metrics of an image against a reference: RMSE, PSNR, SSIM, the 8-bit round trip,
 //! and the Pareto front of (time, error) points.
 
-use super::*;
+use strahl_core::pixel::Pixel;
 
 /// An image as linear colours in `[0, 1]`, row-major.
 pub type Colors = Vec<[f32; 3]>;

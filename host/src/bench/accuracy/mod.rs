@@ -38,17 +38,12 @@ use crate::cluster::local::render_local;
 use crate::cluster::prepared::PreparedScene;
 use crate::load::{load_scene, Overrides};
 use anyhow::{anyhow, bail, Context as _};
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use strahl_core::error::ProtocolError;
 use strahl_core::octree::OctreeParams;
 use strahl_core::pixel::Pixel;
-use strahl_core::protocol::frame::FrameWriter;
-use strahl_core::protocol::message::{encode_pixels, WorkerMessage};
-use strahl_core::protocol::PIXEL_WIRE_BYTES;
 use strahl_core::scene::{
     RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
@@ -61,12 +56,15 @@ mod plot;
 mod report;
 mod wire;
 
-use conclusions::*;
-use format::*;
-pub use metrics::*;
-pub use plot::*;
-use report::*;
-pub use wire::*;
+pub use metrics::{pareto_front, psnr, rmse, ssim, through_8_bits, to_colors, Colors};
+pub use plot::{svg, PlotPanel, PlotPoint};
+pub use wire::{
+    line_result_frame, serial_seconds, wire_bytes, WireBytes, PIXEL_WIRE_BYTES_8,
+    SERIAL_BITS_PER_BYTE,
+};
+
+use format::{fmt_rays, fmt_secs, percent, settings_summary, sig3, stdout_row};
+use report::{load_average, report};
 
 /// The demo room's configuration file, relative to the checkout's root.
 pub const DEFAULT_ROOM: &str = "scenes/room/raytracer.cfg";
@@ -380,13 +378,6 @@ impl SceneRun {
         }
         worst
     }
-}
-
-/// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
-fn percent(v: f32) -> String {
-    let p = format!("{:.2}", f64::from(v) * 100.0);
-    let p = p.trim_end_matches('0').trim_end_matches('.');
-    format!("{p} %")
 }
 
 /// The planned rows of one scene: knob, value, plot label, configuration, reference.

@@ -1,6 +1,8 @@
 //! The SVG plot of error against time, one panel per scene, with the Pareto front marked.
 
-use super::*;
+use super::metrics::pareto_front;
+use super::Knob;
+use std::fmt::Write as _;
 
 /// One point of the plot.
 #[derive(Clone, Debug)]

@@ -1,7 +1,25 @@
 //! The Markdown report: method, scenes, references and residuals, the results table, and a
 //! paragraph per knob.
 
-use super::*;
+use super::conclusions::{
+    adaptive_conclusion, all_same, cutoff_conclusion, depth_conclusion, multisample_conclusion,
+    occlusion_conclusion, octree_conclusion, precision_conclusion, share, sweep_of,
+};
+use super::format::{
+    fmt_psnr, fmt_ratio, fmt_rays, fmt_secs, fmt_ssim, join_values, percent, rmse_change,
+    settings_summary, sig3, sig_pair,
+};
+use super::metrics::pareto_front;
+use super::wire::{fmt_bytes, serial_seconds, PIXEL_WIRE_BYTES_8};
+use super::{
+    residual_probe_samples, AccuracyArgs, Knob, RefKind, Row, SceneRun, MIN_RUN,
+    OCCLUSION_REFERENCE_SAMPLES, REFERENCE_DEPTH, REFERENCE_SAMPLES,
+};
+use std::fmt::Write as _;
+use std::time::Duration;
+use strahl_core::octree::OctreeParams;
+use strahl_core::protocol::PIXEL_WIRE_BYTES;
+use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_SAMPLES};
 
 pub(super) fn rows_of(rows: &[Row], scene: usize, knob: Knob) -> Vec<&Row> {
     rows.iter()
@@ -62,14 +80,6 @@ pub(super) fn identical_groups(rows: &[&Row], scene: &SceneRun) -> Vec<Vec<Strin
         .map(|(_, v)| v)
         .filter(|v| v.len() > 1)
         .collect()
-}
-
-pub(super) fn join_values(v: &[String]) -> String {
-    match v {
-        [] => String::new(),
-        [a] => a.clone(),
-        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
-    }
 }
 
 pub(super) fn identical_note(rows: &[&Row], scene: &SceneRun, what: &str) -> String {
