@@ -698,27 +698,6 @@ pub(super) fn row_colors(r: &Row, sc: &SceneRun) -> Colors {
     }
 }
 
-/// The value a row's knob takes in its configuration.
-pub(super) fn knob_value(r: &Row, sc: &SceneRun) -> f64 {
-    let s = &sc.measured[r.measured].config.settings;
-    match r.knob {
-        Knob::Multisample => f64::from(s.samples),
-        Knob::Adaptive => f64::from(s.aa_threshold),
-        Knob::Cutoff => f64::from(s.min_reflection_weight),
-        Knob::Depth => f64::from(s.max_depth),
-        Knob::Occlusion => f64::from(s.ambient_occlusion),
-        Knob::OctreeDepth => f64::from(sc.measured[r.measured].config.octree.max_depth),
-        Knob::OctreeLeaf => f64::from(sc.measured[r.measured].config.octree.max_leaf_triangles),
-        Knob::Precision => {
-            if r.eight_bit {
-                8.0
-            } else {
-                16.0
-            }
-        }
-    }
-}
-
 /// The rows as a [`Sweep`], compared with `residual`.
 pub(super) fn sweep_of(rs: &[&Row], sc: &SceneRun) -> Sweep {
     let residual = rs
@@ -747,7 +726,7 @@ pub(super) fn sweep_of(rs: &[&Row], sc: &SceneRun) -> Sweep {
     let points = rs
         .iter()
         .map(|r| {
-            let num = knob_value(r, sc);
+            let num = r.setting.num();
             Point {
                 label: match r.knob {
                     Knob::Multisample | Knob::Occlusion | Knob::Depth => format!("{num}"),

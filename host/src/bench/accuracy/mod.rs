@@ -52,6 +52,7 @@ use strahl_core::shade::RayCounts;
 mod conclusions;
 mod format;
 mod metrics;
+mod plan;
 mod plot;
 mod report;
 mod wire;
@@ -63,7 +64,8 @@ pub use wire::{
     SERIAL_BITS_PER_BYTE,
 };
 
-use format::{fmt_rays, fmt_secs, percent, settings_summary, sig3, stdout_row};
+use format::{fmt_rays, fmt_secs, settings_summary, sig3, stdout_row};
+use plan::{plan, Planned, Setting};
 use report::{load_average, report};
 
 /// The demo room's configuration file, relative to the checkout's root.
@@ -287,6 +289,9 @@ struct Errors {
 struct Row {
     scene: usize,
     knob: Knob,
+    /// The knob's value.
+    setting: Setting,
+    /// The value in the table.
     value: String,
     /// Short label in the plot.
     short: String,
@@ -378,182 +383,6 @@ impl SceneRun {
         }
         worst
     }
-}
-
-/// The planned rows of one scene: knob, value, plot label, configuration, reference.
-fn plan(
-    baseline: &RenderSettings,
-    quick: bool,
-) -> Vec<(Knob, String, String, Config, RefKind, bool)> {
-    let octree = OctreeParams::default();
-    let cfg = |settings: RenderSettings| Config { settings, octree };
-    let mut rows = Vec::new();
-    let pick = |full: &[u32], q: &[u32]| -> Vec<u32> {
-        if quick {
-            q.to_vec()
-        } else {
-            full.to_vec()
-        }
-    };
-    for m in pick(&[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 4]) {
-        let s = RenderSettings {
-            samples: m,
-            aa_threshold: -1.0,
-            ..*baseline
-        };
-        rows.push((
-            Knob::Multisample,
-            format!("{m} ({} spp)", m * m),
-            format!("m{m}"),
-            cfg(s),
-            RefKind::Main,
-            false,
-        ));
-    }
-    let thresholds: &[f32] = if quick {
-        &[0.1]
-    } else {
-        &[0.3, 0.1, 0.03, 0.01]
-    };
-    for &t in thresholds {
-        let s = RenderSettings {
-            samples: 4,
-            aa_threshold: t,
-            ..*baseline
-        };
-        rows.push((
-            Knob::Adaptive,
-            format!("{t}"),
-            format!("t{t}"),
-            cfg(s),
-            RefKind::Main,
-            false,
-        ));
-    }
-    let reflect_ref = if baseline.reflections {
-        RefKind::Main
-    } else {
-        RefKind::Reflections
-    };
-    let reflective = RenderSettings {
-        reflections: true,
-        ..*baseline
-    };
-    // The scene's own cut-off and depth cap join the sweeps.
-    let mut cutoffs: Vec<f32> = if quick {
-        vec![0.1, 0.0]
-    } else {
-        vec![0.1, 0.05, 0.01, 0.0]
-    };
-    if !cutoffs.contains(&baseline.min_reflection_weight) {
-        cutoffs.push(baseline.min_reflection_weight);
-        cutoffs.sort_by(|a, b| b.total_cmp(a));
-    }
-    for c in cutoffs {
-        let s = RenderSettings {
-            min_reflection_weight: c,
-            ..reflective
-        };
-        rows.push((
-            Knob::Cutoff,
-            percent(c),
-            format!("cut {}", percent(c)),
-            cfg(s),
-            reflect_ref,
-            false,
-        ));
-    }
-    let mut depths = pick(&[1, 2, 4, 8, 16], &[1, 16]);
-    if !depths.contains(&baseline.max_depth) {
-        depths.push(baseline.max_depth);
-        depths.sort_unstable();
-    }
-    for d in depths {
-        let s = RenderSettings {
-            max_depth: d,
-            ..reflective
-        };
-        rows.push((
-            Knob::Depth,
-            d.to_string(),
-            format!("d{d}"),
-            cfg(s),
-            reflect_ref,
-            false,
-        ));
-    }
-    let levels: Vec<u32> = match (baseline.ambient_occlusion, quick) {
-        (0, false) => vec![0, 1, 2, 4],
-        (0, true) => vec![0, 1],
-        (l, false) => (0..=MAX_AMBIENT_OCCLUSION).chain([l]).collect(),
-        (l, true) => vec![0, l, MAX_AMBIENT_OCCLUSION],
-    };
-    let mut seen = Vec::new();
-    for a in levels {
-        if seen.contains(&a) {
-            continue;
-        }
-        seen.push(a);
-        let s = RenderSettings {
-            ambient_occlusion: a,
-            ..*baseline
-        };
-        rows.push((
-            Knob::Occlusion,
-            match a {
-                0 => "0 (off)".to_string(),
-                1 => "1 (1 ray)".to_string(),
-                _ => format!("{a} ({} rays)", a * a),
-            },
-            format!("AO {a}"),
-            cfg(s),
-            RefKind::Occlusion9,
-            false,
-        ));
-    }
-    for d in pick(&[4, 8, 12, 16, 20], &[4, 16]) {
-        rows.push((
-            Knob::OctreeDepth,
-            d.to_string(),
-            format!("depth {d}"),
-            Config {
-                settings: *baseline,
-                octree: OctreeParams {
-                    max_depth: d,
-                    ..octree
-                },
-            },
-            RefKind::Baseline,
-            false,
-        ));
-    }
-    for l in pick(&[1, 2, 4, 8, 16, 32], &[1, 8]) {
-        rows.push((
-            Knob::OctreeLeaf,
-            l.to_string(),
-            format!("leaf {l}"),
-            Config {
-                settings: *baseline,
-                octree: OctreeParams {
-                    max_leaf_triangles: l,
-                    ..octree
-                },
-            },
-            RefKind::Baseline,
-            false,
-        ));
-    }
-    for bits in [16, 8] {
-        rows.push((
-            Knob::Precision,
-            format!("{bits} bit"),
-            format!("{bits} bit"),
-            cfg(*baseline),
-            RefKind::Main,
-            bits == 8,
-        ));
-    }
-    rows
 }
 
 /// Renders `desc` with `config` `runs` times on `workers` in-process workers; returns the median
@@ -807,7 +636,16 @@ fn run_scene(
     let base = measure(&mut measured, &base_config)?;
     let plan = plan(&baseline, args.quick);
     let mut mine = Vec::new();
-    for (knob, value, short, config, reference, eight_bit) in plan {
+    for Planned {
+        knob,
+        setting,
+        value,
+        short,
+        config,
+        reference,
+        eight_bit,
+    } in plan
+    {
         let i = measure(&mut measured, &config)?;
         let m = &measured[i];
         let b = &measured[base];
@@ -856,6 +694,7 @@ fn run_scene(
         let row = Row {
             scene: scene_index,
             knob,
+            setting,
             value,
             short,
             measured: i,
