@@ -38,7 +38,7 @@ use crate::cluster::local::render_local;
 use crate::cluster::prepared::PreparedScene;
 use crate::load::{load_scene, Overrides};
 use anyhow::{anyhow, bail, Context as _};
-use std::io::Write as _;
+use std::io::Write;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -491,32 +491,18 @@ fn load(path: &Path, size: ImageSize) -> anyhow::Result<SceneDesc> {
     Ok(desc)
 }
 
-/// Measures one scene, printing its rows on stdout as they come.
-fn run_scene(
-    name: &str,
-    desc: &SceneDesc,
-    args: &AccuracyArgs,
-    cores: usize,
-    scene_index: usize,
-    rows: &mut Vec<Row>,
-) -> anyhow::Result<SceneRun> {
-    let runs = args.runs.max(1) as usize;
-    let (w, h) = (args.size.width, args.size.height);
-    let mut out = std::io::stdout().lock();
-    let baseline = RenderSettings {
-        samples: 1,
-        ..desc.settings
-    };
+/// The references of a scene with `baseline`: the main one, the one with reflections on when
+/// the scene has them off, and the ambient-occlusion one at level 9.
+fn reference_settings(baseline: &RenderSettings) -> Vec<(RefKind, RenderSettings)> {
     let main_ref = RenderSettings {
         samples: REFERENCE_SAMPLES,
         aa_threshold: -1.0,
         min_reflection_weight: 0.0,
         max_depth: REFERENCE_DEPTH,
-        ..baseline
+        ..*baseline
     };
     let mut ref_settings = vec![(RefKind::Main, main_ref)];
-    let reflections_forced = !baseline.reflections;
-    if reflections_forced {
+    if !baseline.reflections {
         ref_settings.push((
             RefKind::Reflections,
             RenderSettings {
@@ -537,13 +523,27 @@ fn run_scene(
             ..main_ref
         },
     ));
-    writeln!(
-        out,
-        "\n{name}: {w}x{h}, {} triangles, {} solid objects; baseline: {}",
-        desc.triangles.len(),
-        desc.objects.len(),
-        settings_summary(&baseline)
-    )?;
+    ref_settings
+}
+
+/// The image each kind of reference compares with.
+struct RefImages(Vec<(RefKind, Colors)>);
+
+impl RefImages {
+    fn get(&self, kind: RefKind) -> Option<&Colors> {
+        self.0.iter().find(|(k, _)| *k == kind).map(|(_, c)| c)
+    }
+}
+
+/// Renders the references and their residual probes, printing a line for each.
+fn render_references(
+    out: &mut impl Write,
+    name: &str,
+    desc: &SceneDesc,
+    ref_settings: &[(RefKind, RenderSettings)],
+    cores: usize,
+) -> anyhow::Result<(Vec<Reference>, RefImages)> {
+    let (w, h) = (desc.settings.width, desc.settings.height);
     let mut references: Vec<Reference> = Vec::new();
     let mut ref_images: Vec<(RefKind, Colors)> = Vec::new();
     for (i, (kind, s)) in ref_settings.iter().enumerate() {
@@ -596,29 +596,39 @@ fn run_scene(
         });
         ref_images.push((*kind, colors));
     }
-    let header = |out: &mut std::io::StdoutLock<'_>, time: &str| {
-        writeln!(
-            out,
-            "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  compared with",
-            "scene", "knob", "value", time, "×base", "RMSE", "PSNR", "SSIM", "rays"
-        )
-    };
-    if runs > 1 {
-        writeln!(out, "round 1 of {runs} (times of this round only):")?;
-    }
-    header(&mut out, if runs > 1 { "1st s" } else { "s" })?;
+    Ok((references, RefImages(ref_images)))
+}
 
-    let mut measured: Vec<Measured> = Vec::new();
-    let measure = |measured: &mut Vec<Measured>, config: &Config| -> anyhow::Result<usize> {
-        if let Some(i) = measured.iter().position(|m| m.config == *config) {
+/// The header of the table on stdout, with `time` over the time column.
+fn stdout_header(out: &mut impl Write, time: &str) -> std::io::Result<()> {
+    writeln!(
+        out,
+        "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  compared with",
+        "scene", "knob", "value", time, "×base", "RMSE", "PSNR", "SSIM", "rays"
+    )
+}
+
+/// The configurations of one scene as measured, each rendered once per round.
+struct Measurements<'a> {
+    name: &'a str,
+    desc: &'a SceneDesc,
+    cores: usize,
+    measured: Vec<Measured>,
+}
+
+impl Measurements<'_> {
+    /// The index of `config`'s measurement, rendering it first if it is new.
+    fn measure(&mut self, config: &Config) -> anyhow::Result<usize> {
+        if let Some(i) = self.measured.iter().position(|m| m.config == *config) {
             return Ok(i);
         }
-        let (time, pixels, rays) = render_timed(name, desc, config, cores, 1)?;
-        let image = measured
+        let (time, pixels, rays) = render_timed(self.name, self.desc, config, self.cores, 1)?;
+        let image = self
+            .measured
             .iter()
             .position(|m| m.pixels == pixels)
-            .unwrap_or(measured.len());
-        measured.push(Measured {
+            .unwrap_or(self.measured.len());
+        self.measured.push(Measured {
             config: *config,
             times: vec![time],
             time,
@@ -627,79 +637,158 @@ fn run_scene(
             rays,
             image,
         });
-        Ok(measured.len() - 1)
+        Ok(self.measured.len() - 1)
+    }
+
+    /// Rounds 2 to `runs` over every setting; then each setting's time is the median.
+    ///
+    /// The other runs go in rounds over every setting, so a busy spell of the machine spreads
+    /// over all settings instead of spoiling one. Each round starts at another setting, so no
+    /// setting always follows the same one.
+    fn remaining_rounds(&mut self, out: &mut impl Write, runs: usize) -> anyhow::Result<()> {
+        let name = self.name;
+        let n = self.measured.len();
+        for round in 2..=runs {
+            writeln!(out, "round {round} of {runs}")?;
+            let offset = (round - 1) * n / runs;
+            for k in 0..n {
+                let m = &mut self.measured[(k + offset) % n];
+                let (t, pixels, _) = render_timed(name, self.desc, &m.config, self.cores, 1)?;
+                if pixels != m.pixels {
+                    bail!(
+                        "{name}: two renders of the same settings differ (a bug): {:?}",
+                        m.config
+                    );
+                }
+                m.times.push(t);
+            }
+        }
+        for m in &mut self.measured {
+            m.time = median(m.times.clone());
+        }
+        Ok(())
+    }
+}
+
+/// Fails unless an octree row's image `m` is the default octree's `b`, naming the setting and
+/// the first pixel that differs.
+fn check_octree_row(
+    name: &str,
+    planned: &Planned,
+    m: &Measured,
+    b: &Measured,
+    width: u32,
+) -> anyhow::Result<()> {
+    if m.pixels == b.pixels {
+        return Ok(());
+    }
+    let n = m
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .filter(|(p, q)| p != q)
+        .count();
+    let detail =
+        first_difference(&m.pixels, &b.pixels, width).map_or_else(String::new, |(x, y, p, q)| {
+            format!(
+                "; first at pixel ({x}, {y}): {:?} instead of {:?}",
+                p.0, q.0
+            )
+        });
+    bail!(
+        "{name}: {} {} (octree depth {}, leaf {}) changed {n} of {} pixels \
+         against the default octree (depth {}, leaf {}){detail}. Octree settings \
+         must never change the image: this is a bug.",
+        planned.knob.name(),
+        planned.value,
+        planned.config.octree.max_depth,
+        planned.config.octree.max_leaf_triangles,
+        m.pixels.len(),
+        b.config.octree.max_depth,
+        b.config.octree.max_leaf_triangles,
+    );
+}
+
+/// The errors of a planned row's render `m` against what it is compared with: the baseline `b`
+/// for octree rows (which must match it exactly), else its reference.
+fn row_errors(
+    name: &str,
+    planned: &Planned,
+    m: &Measured,
+    b: &Measured,
+    ref_images: &RefImages,
+    (w, h): (u32, u32),
+) -> anyhow::Result<Errors> {
+    if planned.reference == RefKind::Baseline {
+        check_octree_row(name, planned, m, b, w)?;
+        return Ok(errors(&m.colors, &b.colors, w, h));
+    }
+    let Some(reference) = ref_images.get(planned.reference) else {
+        // reference_settings plans every kind but the baseline, which is handled above.
+        debug_assert!(false, "no {} image", planned.reference.name());
+        bail!("{name}: no {} image", planned.reference.name());
     };
-    let base_config = Config {
+    Ok(if planned.eight_bit {
+        errors(&to_colors(&through_8_bits(&m.pixels)), reference, w, h)
+    } else {
+        errors(&m.colors, reference, w, h)
+    })
+}
+
+/// Measures one scene, printing its rows on stdout as they come.
+fn run_scene(
+    name: &str,
+    desc: &SceneDesc,
+    args: &AccuracyArgs,
+    cores: usize,
+    scene_index: usize,
+    rows: &mut Vec<Row>,
+) -> anyhow::Result<SceneRun> {
+    let runs = args.runs.max(1) as usize;
+    let (w, h) = (args.size.width, args.size.height);
+    let mut out = std::io::stdout().lock();
+    let baseline = RenderSettings {
+        samples: 1,
+        ..desc.settings
+    };
+    writeln!(
+        out,
+        "\n{name}: {w}x{h}, {} triangles, {} solid objects; baseline: {}",
+        desc.triangles.len(),
+        desc.objects.len(),
+        settings_summary(&baseline)
+    )?;
+    let ref_settings = reference_settings(&baseline);
+    let (references, ref_images) = render_references(&mut out, name, desc, &ref_settings, cores)?;
+    if runs > 1 {
+        writeln!(out, "round 1 of {runs} (times of this round only):")?;
+    }
+    stdout_header(&mut out, if runs > 1 { "1st s" } else { "s" })?;
+
+    let mut ms = Measurements {
+        name,
+        desc,
+        cores,
+        measured: Vec::new(),
+    };
+    let base = ms.measure(&Config {
         settings: baseline,
         octree: OctreeParams::default(),
-    };
-    let base = measure(&mut measured, &base_config)?;
-    let plan = plan(&baseline, args.quick);
+    })?;
     let mut mine = Vec::new();
-    for Planned {
-        knob,
-        setting,
-        value,
-        short,
-        config,
-        reference,
-        eight_bit,
-    } in plan
-    {
-        let i = measure(&mut measured, &config)?;
-        let m = &measured[i];
-        let b = &measured[base];
-        let errs = if reference == RefKind::Baseline {
-            if m.pixels != b.pixels {
-                let n = m
-                    .pixels
-                    .iter()
-                    .zip(&b.pixels)
-                    .filter(|(p, q)| p != q)
-                    .count();
-                let detail = first_difference(&m.pixels, &b.pixels, w).map_or_else(
-                    String::new,
-                    |(x, y, p, q)| {
-                        format!(
-                            "; first at pixel ({x}, {y}): {:?} instead of {:?}",
-                            p.0, q.0
-                        )
-                    },
-                );
-                bail!(
-                    "{name}: {} {value} (octree depth {}, leaf {}) changed {n} of {} pixels \
-                     against the default octree (depth {}, leaf {}){detail}. Octree settings \
-                     must never change the image: this is a bug.",
-                    knob.name(),
-                    config.octree.max_depth,
-                    config.octree.max_leaf_triangles,
-                    m.pixels.len(),
-                    base_config.octree.max_depth,
-                    base_config.octree.max_leaf_triangles,
-                );
-            }
-            errors(&m.colors, &b.colors, w, h)
-        } else {
-            let reference = ref_images
-                .iter()
-                .find(|(k, _)| *k == reference)
-                .map(|(_, c)| c)
-                .ok_or_else(|| anyhow!("internal error: no {} image", reference.name()))?;
-            if eight_bit {
-                errors(&to_colors(&through_8_bits(&m.pixels)), reference, w, h)
-            } else {
-                errors(&m.colors, reference, w, h)
-            }
-        };
+    for planned in plan(&baseline, args.quick) {
+        let i = ms.measure(&planned.config)?;
+        let (m, b) = (&ms.measured[i], &ms.measured[base]);
+        let errs = row_errors(name, &planned, m, b, &ref_images, (w, h))?;
         let row = Row {
             scene: scene_index,
-            knob,
-            setting,
-            value,
-            short,
+            knob: planned.knob,
+            setting: planned.setting,
+            value: planned.value,
+            short: planned.short,
             measured: i,
-            eight_bit,
-            reference,
+            eight_bit: planned.eight_bit,
+            reference: planned.reference,
             time: m.time,
             ratio: m.time.as_secs_f64() / b.time.as_secs_f64().max(1e-12),
             errors: errs,
@@ -707,28 +796,8 @@ fn run_scene(
         stdout_row(&mut out, name, &row, m.rays.total())?;
         mine.push(row);
     }
-    // The other runs in rounds over every setting, so a busy spell of the machine spreads over
-    // all settings instead of spoiling one.
-    // Each round starts at another setting, so no setting always follows the same one.
-    let n = measured.len();
-    for round in 2..=runs {
-        writeln!(out, "round {round} of {runs}")?;
-        let offset = (round - 1) * n / runs;
-        for k in 0..n {
-            let m = &mut measured[(k + offset) % n];
-            let (t, pixels, _) = render_timed(name, desc, &m.config, cores, 1)?;
-            if pixels != m.pixels {
-                bail!(
-                    "{name}: two renders of the same settings differ (a bug): {:?}",
-                    m.config
-                );
-            }
-            m.times.push(t);
-        }
-    }
-    for m in &mut measured {
-        m.time = median(m.times.clone());
-    }
+    ms.remaining_rounds(&mut out, runs)?;
+    let measured = ms.measured;
     let base_time = measured[base].time.as_secs_f64().max(1e-12);
     for r in &mut mine {
         r.time = measured[r.measured].time;
@@ -736,7 +805,7 @@ fn run_scene(
     }
     if runs > 1 {
         writeln!(out, "median of {runs} runs:")?;
-        header(&mut out, "median s")?;
+        stdout_header(&mut out, "median s")?;
         for r in &mine {
             stdout_row(&mut out, name, r, measured[r.measured].rays.total())?;
         }
@@ -752,7 +821,7 @@ fn run_scene(
         baseline,
         baseline_time: b.time,
         references,
-        reflections_forced,
+        reflections_forced: !baseline.reflections,
         measured,
         quantization,
         wire,

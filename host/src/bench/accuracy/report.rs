@@ -237,10 +237,7 @@ fn multisample_text(s: &Section<'_>, text: &mut String) {
                 b.max_depth
             )
         });
-    text.push_str(&multisample_conclusion(
-        &sweep_of(&rs, sc),
-        other.as_deref(),
-    ));
+    text.push_str(&multisample_conclusion(&sweep_of(rs, sc), other.as_deref()));
 }
 
 /// The adaptive threshold against full multisample 4: time, error and pixels refined.
@@ -291,10 +288,10 @@ fn adaptive_text(s: &Section<'_>, text: &mut String) {
         let k = all.len();
         all.extend(multisample.iter().copied());
         let sw = sweep_of(&all, sc);
-        text.push_str(&identical_note(&rs, sc, "threshold"));
+        text.push_str(&identical_note(rs, sc, "threshold"));
         text.push_str(&adaptive_conclusion(&sw, 1..k, k..all.len()));
     } else {
-        text.push_str(&identical_note(&rs, sc, "threshold"));
+        text.push_str(&identical_note(rs, sc, "threshold"));
     }
 }
 
@@ -332,7 +329,7 @@ fn reflection_text(s: &Section<'_>, text: &mut String) {
         );
     }
     text.push_str(&identical_note(
-        &rs,
+        rs,
         sc,
         if knob == Knob::Cutoff {
             "cut-off"
@@ -340,8 +337,8 @@ fn reflection_text(s: &Section<'_>, text: &mut String) {
             "depth cap"
         },
     ));
-    let sw = sweep_of(&rs, sc);
-    let same = all_same(&rs, sc);
+    let sw = sweep_of(rs, sc);
+    let same = all_same(rs, sc);
     if knob == Knob::Cutoff {
         let own = sw
             .points
@@ -387,7 +384,7 @@ fn occlusion_text(s: &Section<'_>, text: &mut String) {
             "The scene uses level {level}; compared with the reference at level 9."
         );
     }
-    text.push_str(&scale);
+    text.push_str(scale);
     let _ = write!(text, " That reference's residual is {}.", sig3(residual));
     for r in rs {
         let rays = sc.measured[r.measured].rays;
@@ -399,7 +396,7 @@ fn occlusion_text(s: &Section<'_>, text: &mut String) {
             fmt_rays(rays.occlusion)
         );
     }
-    text.push_str(&identical_note(&rs, sc, "level"));
+    text.push_str(&identical_note(rs, sc, "level"));
     let reference = sc
         .references
         .iter()
@@ -414,7 +411,7 @@ fn occlusion_text(s: &Section<'_>, text: &mut String) {
                 )
             },
         );
-    text.push_str(&occlusion_conclusion(&sweep_of(&rs, sc), level, &reference));
+    text.push_str(&occlusion_conclusion(&sweep_of(rs, sc), level, &reference));
 }
 
 /// The octree depth and leaf size: identical images, and their render times.
@@ -662,6 +659,7 @@ pub(super) fn command_line() -> String {
 }
 
 #[allow(clippy::too_many_arguments)]
+/// The Markdown report.
 pub(super) fn report(
     args: &AccuracyArgs,
     scenes: &[SceneRun],
@@ -673,6 +671,24 @@ pub(super) fn report(
     load_start: &str,
 ) -> String {
     let mut md = String::new();
+    intro(&mut md, args, skipped, cores, total, svg_name, load_start);
+    method(&mut md);
+    scenes_section(&mut md, scenes);
+    results_section(&mut md, scenes, rows);
+    front_and_knobs(&mut md, scenes, rows, svg_name);
+    md
+}
+
+/// The title and how the run was made: command, machine, image size, runs, skipped scenes.
+fn intro(
+    md: &mut String,
+    args: &AccuracyArgs,
+    skipped: &[String],
+    cores: usize,
+    total: Duration,
+    svg_name: &str,
+    load_start: &str,
+) {
     let runs = args.runs.max(1);
     let _ = writeln!(md, "# Accuracy and what it costs\n");
     let _ = writeln!(
@@ -704,6 +720,10 @@ pub(super) fn report(
     for s in skipped {
         let _ = writeln!(md, "- Skipped: {s}");
     }
+}
+
+/// The method: references, residuals, baseline, error measures.
+fn method(md: &mut String) {
     let _ = writeln!(md, "\n## Method\n");
     let _ = writeln!(
         md,
@@ -760,6 +780,10 @@ pub(super) fn report(
          prove them in front of the ray); there is no f64 tracer to compare with, so no figure \
          is given rather than an invented one."
     );
+}
+
+/// The scenes, their references with residuals, and the timing noise of each.
+fn scenes_section(md: &mut String, scenes: &[SceneRun]) {
     let _ = writeln!(md, "\n## Scenes\n");
     let _ = writeln!(
         md,
@@ -834,6 +858,10 @@ pub(super) fn report(
         }
     }
     let _ = writeln!(md);
+}
+
+/// The results table and the line results on the wire.
+fn results_section(md: &mut String, scenes: &[SceneRun], rows: &[Row]) {
     let _ = writeln!(md, "## Results\n");
     let _ = writeln!(
         md,
@@ -886,6 +914,10 @@ pub(super) fn report(
             serial_seconds(wb.image8, baud)
         );
     }
+}
+
+/// The plot, each scene's Pareto front, the paragraph per knob and the f64 note.
+fn front_and_knobs(md: &mut String, scenes: &[SceneRun], rows: &[Row], svg_name: &str) {
     let _ = writeln!(md, "\n## Error against time\n");
     let _ = writeln!(md, "![RMSE against median render time]({svg_name})\n");
     let _ = writeln!(
@@ -934,7 +966,6 @@ pub(super) fn report(
          inconclusive); an f64 reference would need a second renderer, so this report gives \
          no figure for it."
     );
-    md
 }
 
 #[cfg(test)]
