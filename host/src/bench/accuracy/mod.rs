@@ -846,23 +846,9 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .ok_or_else(|| anyhow!("{}: not a file name", args.out.display()))?;
-    // Fail before the long part if the report cannot be written.
-    let folder = match args.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !folder.is_dir() {
-        bail!(
-            "{}: cannot write the report: no such folder {}",
-            args.out.display(),
-            folder.display()
-        );
-    }
+    check_report_folder(&args.out)?;
 
     let list = scene_list(args)?;
-    let mut skipped = Vec::new();
-    let mut scenes = Vec::new();
-    let mut rows = Vec::new();
     println!(
         "strahl bench accuracy: {}x{}, {} runs per setting, {cores} workers{}",
         args.size.width,
@@ -870,6 +856,73 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         args.runs.max(1),
         if args.quick { ", quick sweep" } else { "" }
     );
+    let Sweeps {
+        scenes,
+        rows,
+        skipped,
+    } = run_scenes(list, args, cores)?;
+    let total = start.elapsed();
+
+    let md = report(
+        args,
+        &scenes,
+        &skipped,
+        &rows,
+        cores,
+        total,
+        &svg_name,
+        &load_start,
+    );
+    let picture = svg(&plot_panels(&scenes, &rows));
+    for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
+        crate::output::write_atomically(path, |w| {
+            w.write_all(text.as_bytes())
+                .with_context(|| format!("{}: cannot write", path.display()))
+        })?;
+    }
+    println!(
+        "\nwrote {} and {} ({:.1} s)",
+        args.out.display(),
+        svg_path.display(),
+        total.as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Fails before the long part if the report `out` cannot be written: its folder must exist.
+fn check_report_folder(out: &Path) -> anyhow::Result<()> {
+    let folder = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !folder.is_dir() {
+        bail!(
+            "{}: cannot write the report: no such folder {}",
+            out.display(),
+            folder.display()
+        );
+    }
+    Ok(())
+}
+
+/// Every scene measured, with the rows of all of them.
+struct Sweeps {
+    scenes: Vec<SceneRun>,
+    rows: Vec<Row>,
+    /// The default scenes that did not load, with why.
+    skipped: Vec<String>,
+}
+
+/// Loads and measures the scenes of `list` ([`scene_list`]): all the required ones and the first
+/// two optional ones that load.
+fn run_scenes(
+    list: Vec<(PathBuf, bool)>,
+    args: &AccuracyArgs,
+    cores: usize,
+) -> anyhow::Result<Sweeps> {
+    let mut skipped = Vec::new();
+    let mut scenes = Vec::new();
+    let mut rows = Vec::new();
     let mut optional = 0;
     for (path, required) in list {
         if !required && optional == 2 {
@@ -889,13 +942,20 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         let index = scenes.len();
         scenes.push(run_scene(&name, &desc, args, cores, index, &mut rows)?);
     }
-    let total = start.elapsed();
+    Ok(Sweeps {
+        scenes,
+        rows,
+        skipped,
+    })
+}
 
-    let panels: Vec<PlotPanel> = scenes
+/// The plot's panels: one per scene, one point per render and reference (the baseline appears
+/// under several knobs), octree rows left out.
+fn plot_panels(scenes: &[SceneRun], rows: &[Row]) -> Vec<PlotPanel> {
+    scenes
         .iter()
         .enumerate()
         .map(|(si, sc)| {
-            // One point per render and reference: the baseline appears under several knobs.
             let mut seen: Vec<(usize, bool, RefKind)> = Vec::new();
             let mut points = Vec::new();
             for r in rows.iter().filter(|r| {
@@ -919,31 +979,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
                 points,
             }
         })
-        .collect();
-    let md = report(
-        args,
-        &scenes,
-        &skipped,
-        &rows,
-        cores,
-        total,
-        &svg_name,
-        &load_start,
-    );
-    let picture = svg(&panels);
-    for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
-        crate::output::write_atomically(path, |w| {
-            w.write_all(text.as_bytes())
-                .with_context(|| format!("{}: cannot write", path.display()))
-        })?;
-    }
-    println!(
-        "\nwrote {} and {} ({:.1} s)",
-        args.out.display(),
-        svg_path.display(),
-        total.as_secs_f64()
-    );
-    Ok(())
+        .collect()
 }
 
 #[cfg(test)]
