@@ -19,7 +19,7 @@ use crate::cluster::master::{run_master, ClusterImage, MasterOptions};
 use crate::cluster::model::{simulate, ModelParams};
 use crate::cluster::prepared::PreparedScene;
 use crate::generate;
-use anyhow::{anyhow, Context as _};
+use anyhow::{anyhow, bail, Context as _};
 use std::io::{BufRead as _, BufReader, Write};
 use std::num::NonZeroUsize;
 use std::process::{Child, Command, Stdio};
@@ -89,7 +89,11 @@ fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
         child,
         address: String::new(),
     };
-    let stderr = stderr.ok_or_else(|| anyhow!("worker process without stderr"))?;
+    let Some(stderr) = stderr else {
+        // Stdio::piped() above gives every child a stderr.
+        debug_assert!(false, "a worker process without stderr");
+        bail!("worker process without stderr");
+    };
     let mut lines = BufReader::new(stderr).lines();
     let first = lines.next().transpose()?.unwrap_or_default();
     w.address = first

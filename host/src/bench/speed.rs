@@ -74,17 +74,18 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::error::Scene
     let runs = opts.runs.max(1);
 
     let mut builds = Vec::with_capacity(runs);
-    let mut octree = None;
-    for _ in 0..runs {
+    let mut build = || {
         let start = Instant::now();
         let tree = Octree::build(&tris, &opts.octree);
         builds.push(start.elapsed());
-        octree = Some(tree);
+        tree
+    };
+    // At least one build, so there are always statistics.
+    let mut octree = build();
+    for _ in 1..runs {
+        octree = build();
     }
-    let stats = *octree
-        .as_ref()
-        .map(Octree::stats)
-        .unwrap_or(&Default::default());
+    let stats = *octree.stats();
 
     let scene = Scene::build(&desc, &opts.octree)?;
     let (w, h) = (opts.size, opts.size);

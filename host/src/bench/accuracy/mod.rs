@@ -385,44 +385,29 @@ impl SceneRun {
     }
 }
 
-/// Renders `desc` with `config` `runs` times on `workers` in-process workers; returns the median
-/// time, the pixels and the rays. Every run must give the same pixels. Scene preparation is not
-/// timed.
+/// Renders `desc` with `config` on `workers` in-process workers; returns the time per render,
+/// the pixels and the rays. A render shorter than [`MIN_RUN`] repeats until the run lasts that
+/// long, and the time is the mean per render. Scene preparation is not timed.
 fn render_timed(
     name: &str,
     desc: &SceneDesc,
     config: &Config,
     workers: usize,
-    runs: usize,
 ) -> anyhow::Result<(Duration, Vec<Pixel>, RayCounts)> {
     let mut d = desc.clone();
     d.settings = config.settings;
     let prepared = PreparedScene::new(&d, &config.octree).map_err(|e| anyhow!("{name}: {e}"))?;
-    let mut times = Vec::with_capacity(runs);
-    let mut first: Option<(Vec<Pixel>, RayCounts)> = None;
-    for _ in 0..runs.max(1) {
-        // Short renders repeat until the run lasts MIN_RUN: the time is per render.
-        let t = Instant::now();
-        let mut count = 0u32;
-        let img = loop {
-            let img = render_local(&prepared, workers, &|_, _| {})
-                .with_context(|| format!("{name}: render failed"))?;
-            count += 1;
-            if t.elapsed() >= MIN_RUN {
-                break img;
-            }
-        };
-        times.push(t.elapsed() / count);
-        match &first {
-            None => first = Some((img.pixels, img.rays)),
-            Some((p, _)) if *p != img.pixels => {
-                bail!("{name}: two renders of the same settings differ (a bug): {config:?}")
-            }
-            Some(_) => {}
+    let t = Instant::now();
+    let mut count = 0u32;
+    let img = loop {
+        let img = render_local(&prepared, workers, &|_, _| {})
+            .with_context(|| format!("{name}: render failed"))?;
+        count += 1;
+        if t.elapsed() >= MIN_RUN {
+            break img;
         }
-    }
-    let (pixels, rays) = first.ok_or_else(|| anyhow!("{name}: no render"))?;
-    Ok((median(times), pixels, rays))
+    };
+    Ok((t.elapsed() / count, img.pixels, img.rays))
 }
 
 /// Where two images first differ: `(x, y, a, b)`.
@@ -563,7 +548,7 @@ fn render_references(
             settings: *s,
             octree: OctreeParams::default(),
         };
-        let (t, px, rays) = render_timed(name, desc, &config, cores, 1)?;
+        let (t, px, rays) = render_timed(name, desc, &config, cores)?;
         let colors = to_colors(&px);
         // The residual: the same settings at half the samples per side.
         let probe_samples = residual_probe_samples(s.samples);
@@ -574,7 +559,7 @@ fn render_references(
             },
             octree: OctreeParams::default(),
         };
-        let (probe_time, probe_px, _) = render_timed(name, desc, &probe, cores, 1)?;
+        let (probe_time, probe_px, _) = render_timed(name, desc, &probe, cores)?;
         let residual = errors(&to_colors(&probe_px), &colors, w, h);
         writeln!(
             out,
@@ -622,7 +607,7 @@ impl Measurements<'_> {
         if let Some(i) = self.measured.iter().position(|m| m.config == *config) {
             return Ok(i);
         }
-        let (time, pixels, rays) = render_timed(self.name, self.desc, config, self.cores, 1)?;
+        let (time, pixels, rays) = render_timed(self.name, self.desc, config, self.cores)?;
         let image = self
             .measured
             .iter()
@@ -653,7 +638,7 @@ impl Measurements<'_> {
             let offset = (round - 1) * n / runs;
             for k in 0..n {
                 let m = &mut self.measured[(k + offset) % n];
-                let (t, pixels, _) = render_timed(name, self.desc, &m.config, self.cores, 1)?;
+                let (t, pixels, _) = render_timed(name, self.desc, &m.config, self.cores)?;
                 if pixels != m.pixels {
                     bail!(
                         "{name}: two renders of the same settings differ (a bug): {:?}",
