@@ -7,7 +7,7 @@ use super::conclusions::{
 };
 use super::format::{
     fmt_psnr, fmt_ratio, fmt_rays, fmt_secs, fmt_ssim, join_values, percent, rmse_change,
-    settings_summary, sig3, sig_pair,
+    row_cells, settings_summary, sig3, sig_pair,
 };
 use super::metrics::pareto_front;
 use super::plan::Setting;
@@ -870,20 +870,8 @@ fn results_section(md: &mut String, scenes: &[SceneRun], rows: &[Row]) {
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let sc = &scenes[r.scene];
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            sc.name,
-            r.knob.name(),
-            r.value,
-            fmt_secs(r.time),
-            fmt_ratio(r.ratio),
-            sig3(r.errors.rmse),
-            fmt_psnr(r.errors.psnr),
-            fmt_ssim(r.errors.ssim),
-            fmt_rays(sc.measured[r.measured].rays.total()),
-            r.reference.name()
-        );
+        let cells = row_cells(&sc.name, r, sc.measured[r.measured].rays.total());
+        let _ = writeln!(md, "| {} |", cells.join(" | "));
     }
     let _ = writeln!(
         md,
