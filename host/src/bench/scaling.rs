@@ -106,6 +106,11 @@ fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
     Ok(w)
 }
 
+/// Worker processes 1 to `n`.
+fn start_worker_processes(n: u32) -> anyhow::Result<Vec<WorkerProcess>> {
+    (1..=n).map(start_worker_process).collect()
+}
+
 fn tcp_render(
     prepared: &PreparedScene,
     workers: &[WorkerProcess],
@@ -191,6 +196,39 @@ fn empty_scene(desc: &SceneDesc) -> anyhow::Result<PreparedScene> {
     PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))
 }
 
+/// The median time of `prepared` on 1 to `max` in-process workers.
+fn in_process_times(
+    prepared: &PreparedScene,
+    max: usize,
+    runs: usize,
+) -> anyhow::Result<Vec<Duration>> {
+    (1..=max)
+        .map(|n| {
+            timed(runs, || {
+                render_local(prepared, n, &|_, _| {})?;
+                Ok(())
+            })
+        })
+        .collect()
+}
+
+/// The median time of `prepared` on the first 1 to all of `procs`.
+fn tcp_times(
+    prepared: &PreparedScene,
+    procs: &[WorkerProcess],
+    opts: &MasterOptions,
+    runs: usize,
+) -> anyhow::Result<Vec<Duration>> {
+    (1..=procs.len())
+        .map(|n| {
+            timed(runs, || {
+                tcp_render(prepared, &procs[..n], opts)?;
+                Ok(())
+            })
+        })
+        .collect()
+}
+
 /// What the table is made of, measured.
 struct Measured {
     cores: u32,
@@ -240,33 +278,17 @@ fn measure(args: &ScalingArgs) -> anyhow::Result<Measured> {
     let line_costs = line_costs(&prepared.scene, args.width, args.height, runs)?;
     let traced: f64 = line_costs.iter().sum();
 
-    let in_process = (1..=max_real)
-        .map(|n| {
-            timed(runs, || {
-                render_local(&prepared, n as usize, &|_, _| {})?;
-                Ok(())
-            })
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
+    let in_process = in_process_times(&prepared, max_real as usize, runs)?;
 
-    let tcp_procs: Option<Vec<WorkerProcess>> = if args.no_tcp {
+    let tcp_procs = if args.no_tcp {
         None
     } else {
-        Some(
-            (1..=max_real)
-                .map(start_worker_process)
-                .collect::<anyhow::Result<_>>()?,
-        )
+        Some(start_worker_processes(max_real)?)
     };
-    let mut tcp = Vec::new();
-    if let Some(procs) = &tcp_procs {
-        for n in 1..=max_real as usize {
-            tcp.push(timed(runs, || {
-                tcp_render(&prepared, &procs[..n], &opts)?;
-                Ok(())
-            })?);
-        }
-    }
+    let tcp = match &tcp_procs {
+        Some(procs) => tcp_times(&prepared, procs, &opts, runs)?,
+        None => Vec::new(),
+    };
 
     // The master's time per result: a render of the same image size whose rays hit nothing,
     // over TCP where the workers run.

@@ -625,6 +625,42 @@ impl Measurements<'_> {
         Ok(self.measured.len() - 1)
     }
 
+    /// Round 1: measures the configuration of every planned row (rendering only new ones) and
+    /// prints its row; `base` is the baseline's measurement.
+    fn first_round(
+        &mut self,
+        out: &mut impl Write,
+        plan: Vec<Planned>,
+        base: usize,
+        ref_images: &RefImages,
+        scene: usize,
+    ) -> anyhow::Result<Vec<Row>> {
+        let name = self.name;
+        let size = (self.desc.settings.width, self.desc.settings.height);
+        let mut rows = Vec::new();
+        for planned in plan {
+            let i = self.measure(&planned.config)?;
+            let (m, b) = (&self.measured[i], &self.measured[base]);
+            let errs = row_errors(name, &planned, m, b, ref_images, size)?;
+            let row = Row {
+                scene,
+                knob: planned.knob,
+                setting: planned.setting,
+                value: planned.value,
+                short: planned.short,
+                measured: i,
+                eight_bit: planned.eight_bit,
+                reference: planned.reference,
+                time: m.time,
+                ratio: m.time.as_secs_f64() / b.time.as_secs_f64().max(1e-12),
+                errors: errs,
+            };
+            stdout_row(out, name, &row, m.rays.total())?;
+            rows.push(row);
+        }
+        Ok(rows)
+    }
+
     /// Rounds 2 to `runs` over every setting; then each setting's time is the median.
     ///
     /// The other runs go in rounds over every setting, so a busy spell of the machine spreads
@@ -720,6 +756,31 @@ fn row_errors(
     })
 }
 
+/// Gives `rows` the median times of their `measured` configurations and their ratio to the
+/// baseline's (`base`); with more than one run, prints the rows again with them.
+fn settle_times(
+    out: &mut impl Write,
+    name: &str,
+    runs: usize,
+    measured: &[Measured],
+    base: usize,
+    rows: &mut [Row],
+) -> anyhow::Result<()> {
+    let base_time = measured[base].time.as_secs_f64().max(1e-12);
+    for r in rows.iter_mut() {
+        r.time = measured[r.measured].time;
+        r.ratio = r.time.as_secs_f64() / base_time;
+    }
+    if runs > 1 {
+        writeln!(out, "median of {runs} runs:")?;
+        stdout_header(out, "median s")?;
+        for r in rows.iter() {
+            stdout_row(out, name, r, measured[r.measured].rays.total())?;
+        }
+    }
+    Ok(())
+}
+
 /// Measures one scene, printing its rows on stdout as they come.
 fn run_scene(
     name: &str,
@@ -760,41 +821,11 @@ fn run_scene(
         settings: baseline,
         octree: OctreeParams::default(),
     })?;
-    let mut mine = Vec::new();
-    for planned in plan(&baseline, args.quick) {
-        let i = ms.measure(&planned.config)?;
-        let (m, b) = (&ms.measured[i], &ms.measured[base]);
-        let errs = row_errors(name, &planned, m, b, &ref_images, (w, h))?;
-        let row = Row {
-            scene: scene_index,
-            knob: planned.knob,
-            setting: planned.setting,
-            value: planned.value,
-            short: planned.short,
-            measured: i,
-            eight_bit: planned.eight_bit,
-            reference: planned.reference,
-            time: m.time,
-            ratio: m.time.as_secs_f64() / b.time.as_secs_f64().max(1e-12),
-            errors: errs,
-        };
-        stdout_row(&mut out, name, &row, m.rays.total())?;
-        mine.push(row);
-    }
+    let planned = plan(&baseline, args.quick);
+    let mut mine = ms.first_round(&mut out, planned, base, &ref_images, scene_index)?;
     ms.remaining_rounds(&mut out, runs)?;
     let measured = ms.measured;
-    let base_time = measured[base].time.as_secs_f64().max(1e-12);
-    for r in &mut mine {
-        r.time = measured[r.measured].time;
-        r.ratio = r.time.as_secs_f64() / base_time;
-    }
-    if runs > 1 {
-        writeln!(out, "median of {runs} runs:")?;
-        stdout_header(&mut out, "median s")?;
-        for r in &mine {
-            stdout_row(&mut out, name, r, measured[r.measured].rays.total())?;
-        }
-    }
+    settle_times(&mut out, name, runs, &measured, base, &mut mine)?;
     let b = &measured[base];
     let quantization = errors(&to_colors(&through_8_bits(&b.pixels)), &b.colors, w, h);
     let wire = wire_bytes(&b.pixels, w, b.rays)
