@@ -44,8 +44,6 @@
 //! cluster's owner reworks it.
 
 pub mod bench;
-pub mod bench_accuracy;
-pub mod bench_scaling;
 pub mod cli;
 pub mod cluster;
 pub mod executor;

@@ -1,7 +1,11 @@
 //! The conclusion that ends each knob's paragraph, computed from the measured rows: which
 //! differences the reference resolves (its residual), and what to pick and why.
 
-use super::*;
+use super::format::{fmt_ratio, fmt_ssim, join_values, sig3};
+use super::metrics::{rmse, through_8_bits, to_colors, Colors};
+use super::wire::WireBytes;
+use super::{Errors, Knob, Row, SceneRun};
+use std::fmt::Write as _;
 
 /// One setting of a knob as the conclusions see it.
 #[derive(Clone, Debug, PartialEq)]
@@ -103,26 +107,7 @@ pub(super) fn multisample_conclusion(sw: &Sweep, other: Option<&str>) -> String 
     if n < 2 {
         return String::new();
     }
-    let mut s = String::new();
-    let unresolved: Vec<String> = (0..n - 1)
-        .filter(|&i| !sw.resolved(i, i + 1))
-        .map(|i| format!("{} → {}", p[i].label, p[i + 1].label))
-        .collect();
-    let _ = write!(
-        s,
-        " The reference's residual is {} (RMSE); a step is resolved only when the residual \
-         cannot explain the change of RMSE.",
-        sig3(sw.residual)
-    );
-    if unresolved.is_empty() {
-        let _ = write!(s, " Every step here is resolved.");
-    } else {
-        let _ = write!(
-            s,
-            " Not resolved: multisample {}.",
-            join_values(&unresolved)
-        );
-    }
+    let mut s = multisample_resolution(sw);
     let order: Vec<usize> = (0..n).collect();
     let settled = sw.settled_from(&order);
     let last = n - 1;
@@ -159,6 +144,45 @@ pub(super) fn multisample_conclusion(sw: &Sweep, other: Option<&str>) -> String 
         );
         return s;
     }
+    s.push_str(&multisample_pick(sw, settled, drop));
+    s.push_str(&multisample_leftover(sw, other));
+    s
+}
+
+/// The residual and the multisample steps it does not resolve.
+fn multisample_resolution(sw: &Sweep) -> String {
+    let p = &sw.points;
+    let n = p.len();
+    let mut s = String::new();
+    let unresolved: Vec<String> = (0..n - 1)
+        .filter(|&i| !sw.resolved(i, i + 1))
+        .map(|i| format!("{} → {}", p[i].label, p[i + 1].label))
+        .collect();
+    let _ = write!(
+        s,
+        " The reference's residual is {} (RMSE); a step is resolved only when the residual \
+         cannot explain the change of RMSE.",
+        sig3(sw.residual)
+    );
+    if unresolved.is_empty() {
+        let _ = write!(s, " Every step here is resolved.");
+    } else {
+        let _ = write!(
+            s,
+            " Not resolved: multisample {}.",
+            join_values(&unresolved)
+        );
+    }
+    s
+}
+
+/// Which multisample to pick when quality matters: the knee (90 % of the RMSE reduction `drop`),
+/// no later than where the reference stops resolving (`settled`).
+fn multisample_pick(sw: &Sweep, settled: Option<usize>, drop: f64) -> String {
+    let p = &sw.points;
+    let n = p.len();
+    let last = n - 1;
+    let mut s = String::new();
     let knee = (1..n)
         .find(|&i| p[0].rmse - p[i].rmse >= 0.9 * drop)
         .unwrap_or(last);
@@ -195,6 +219,14 @@ pub(super) fn multisample_conclusion(sw: &Sweep, other: Option<&str>) -> String 
             }
         );
     }
+    s
+}
+
+/// What is left at the most samples when it is more than the residual explains.
+fn multisample_leftover(sw: &Sweep, other: Option<&str>) -> String {
+    let p = &sw.points;
+    let last = p.len() - 1;
+    let mut s = String::new();
     if p[last].rmse > 2.0 * sw.residual {
         match other {
             Some(o) => {
@@ -439,83 +471,13 @@ pub(super) fn occlusion_conclusion(sw: &Sweep, own: u32, reference: &str) -> Str
         .copied()
         .filter(|&i| worse_ssim(i) || sw.beats(off, i))
         .collect();
-    let mut s = String::new();
-    if !worse.is_empty() {
-        let items: Vec<String> = worse
-            .iter()
-            .map(|&i| {
-                if p[i].rmse >= p[off].rmse {
-                    format!(
-                        "level {} (SSIM {} against {}, RMSE {} against {})",
-                        p[i].label,
-                        fmt_ssim(p[i].ssim),
-                        fmt_ssim(p[off].ssim),
-                        sig3(p[i].rmse),
-                        sig3(p[off].rmse)
-                    )
-                } else {
-                    format!(
-                        "level {} in SSIM ({} against {}), though its RMSE is lower ({} against \
-                         {})",
-                        p[i].label,
-                        fmt_ssim(p[i].ssim),
-                        fmt_ssim(p[off].ssim),
-                        sig3(p[i].rmse),
-                        sig3(p[off].rmse)
-                    )
-                }
-            })
-            .collect();
-        let rays: Vec<String> = worse
-            .iter()
-            .map(|&i| {
-                let n = (p[i].num * p[i].num) as u32;
-                format!(
-                    "{n} ray{} at level {}",
-                    if n == 1 { "" } else { "s" },
-                    p[i].label
-                )
-            })
-            .collect();
-        let _ = write!(
-            s,
-            " Worse than off: {}. With so few occlusion rays per shaded point ({}) the share that \
-             escapes is coarse{}, so the ambient term turns into noise from pixel to pixel; at \
-             multisample 1 nothing averages it, and the {reference} it is compared with is \
-             smooth. That noise costs more than the occlusion it adds, and SSIM, which weighs \
-             local structure, shows it most.",
-            items.join("; "),
-            join_values(&rays),
-            if worse.iter().any(|&i| p[i].num == 1.0) {
-                " (with one ray, 0 or 1)"
-            } else {
-                ""
-            }
-        );
-    }
+    let mut s = worse_than_off(sw, off, &worse, reference);
     let beats_off: Vec<usize> = levels
         .iter()
         .copied()
         .filter(|&i| sw.beats(i, off) && !worse_ssim(i))
         .collect();
-    let unresolved: Vec<usize> = levels
-        .iter()
-        .copied()
-        .filter(|&i| p[i].rmse < p[off].rmse && p[i].ssim > p[off].ssim && !sw.beats(i, off))
-        .collect();
-    if !unresolved.is_empty() {
-        let labels: Vec<String> = unresolved.iter().map(|&i| p[i].label.clone()).collect();
-        let _ = write!(
-            s,
-            " Level{} {} score{} better than off in both RMSE and SSIM, but by less than that \
-             reference resolves (its residual is {}): a sharper reference would be needed to \
-             tell.",
-            if unresolved.len() == 1 { "" } else { "s" },
-            join_values(&labels),
-            if unresolved.len() == 1 { "s" } else { "" },
-            sig3(sw.residual)
-        );
-    }
+    s.push_str(&unresolved_levels(sw, off, &levels));
     let candidates: Vec<usize> = (0..p.len()).filter(|i| !worse.contains(i)).collect();
     let pick = sw.cheapest_unbeaten(&candidates).unwrap_or(off);
     if pick == off {
@@ -569,6 +531,94 @@ pub(super) fn occlusion_conclusion(sw: &Sweep, own: u32, reference: &str) -> Str
                 );
             }
         }
+    }
+    s
+}
+
+/// Why the levels in `worse` do worse than occlusion off (point `off`): too few rays make
+/// noise; empty when none does.
+fn worse_than_off(sw: &Sweep, off: usize, worse: &[usize], reference: &str) -> String {
+    let p = &sw.points;
+    let mut s = String::new();
+    if worse.is_empty() {
+        return s;
+    }
+    let items: Vec<String> = worse
+        .iter()
+        .map(|&i| {
+            if p[i].rmse >= p[off].rmse {
+                format!(
+                    "level {} (SSIM {} against {}, RMSE {} against {})",
+                    p[i].label,
+                    fmt_ssim(p[i].ssim),
+                    fmt_ssim(p[off].ssim),
+                    sig3(p[i].rmse),
+                    sig3(p[off].rmse)
+                )
+            } else {
+                format!(
+                    "level {} in SSIM ({} against {}), though its RMSE is lower ({} against \
+                     {})",
+                    p[i].label,
+                    fmt_ssim(p[i].ssim),
+                    fmt_ssim(p[off].ssim),
+                    sig3(p[i].rmse),
+                    sig3(p[off].rmse)
+                )
+            }
+        })
+        .collect();
+    let rays: Vec<String> = worse
+        .iter()
+        .map(|&i| {
+            let n = (p[i].num * p[i].num) as u32;
+            format!(
+                "{n} ray{} at level {}",
+                if n == 1 { "" } else { "s" },
+                p[i].label
+            )
+        })
+        .collect();
+    let _ = write!(
+        s,
+        " Worse than off: {}. With so few occlusion rays per shaded point ({}) the share that \
+         escapes is coarse{}, so the ambient term turns into noise from pixel to pixel; at \
+         multisample 1 nothing averages it, and the {reference} it is compared with is \
+         smooth. That noise costs more than the occlusion it adds, and SSIM, which weighs \
+         local structure, shows it most.",
+        items.join("; "),
+        join_values(&rays),
+        if worse.iter().any(|&i| p[i].num == 1.0) {
+            " (with one ray, 0 or 1)"
+        } else {
+            ""
+        }
+    );
+    s
+}
+
+/// The levels that score better than off (point `off`) on both RMSE and SSIM by less than the
+/// reference resolves; empty when there are none.
+fn unresolved_levels(sw: &Sweep, off: usize, levels: &[usize]) -> String {
+    let p = &sw.points;
+    let mut s = String::new();
+    let unresolved: Vec<usize> = levels
+        .iter()
+        .copied()
+        .filter(|&i| p[i].rmse < p[off].rmse && p[i].ssim > p[off].ssim && !sw.beats(i, off))
+        .collect();
+    if !unresolved.is_empty() {
+        let labels: Vec<String> = unresolved.iter().map(|&i| p[i].label.clone()).collect();
+        let _ = write!(
+            s,
+            " Level{} {} score{} better than off in both RMSE and SSIM, but by less than that \
+             reference resolves (its residual is {}): a sharper reference would be needed to \
+             tell.",
+            if unresolved.len() == 1 { "" } else { "s" },
+            join_values(&labels),
+            if unresolved.len() == 1 { "s" } else { "" },
+            sig3(sw.residual)
+        );
     }
     s
 }
@@ -694,27 +744,6 @@ pub(super) fn row_colors(r: &Row, sc: &SceneRun) -> Colors {
     }
 }
 
-/// The value a row's knob takes in its configuration.
-pub(super) fn knob_value(r: &Row, sc: &SceneRun) -> f64 {
-    let s = &sc.measured[r.measured].config.settings;
-    match r.knob {
-        Knob::Multisample => f64::from(s.samples),
-        Knob::Adaptive => s.aa_threshold.map_or(-1.0, f64::from),
-        Knob::Cutoff => f64::from(s.min_reflection_weight),
-        Knob::Depth => f64::from(s.max_depth),
-        Knob::Occlusion => f64::from(s.ambient_occlusion),
-        Knob::OctreeDepth => f64::from(sc.measured[r.measured].config.octree.max_depth),
-        Knob::OctreeLeaf => f64::from(sc.measured[r.measured].config.octree.max_leaf_triangles),
-        Knob::Precision => {
-            if r.eight_bit {
-                8.0
-            } else {
-                16.0
-            }
-        }
-    }
-}
-
 /// The rows as a [`Sweep`], compared with `residual`.
 pub(super) fn sweep_of(rs: &[&Row], sc: &SceneRun) -> Sweep {
     let residual = rs
@@ -743,7 +772,7 @@ pub(super) fn sweep_of(rs: &[&Row], sc: &SceneRun) -> Sweep {
     let points = rs
         .iter()
         .map(|r| {
-            let num = knob_value(r, sc);
+            let num = r.setting.num();
             Point {
                 label: match r.knob {
                     Knob::Multisample | Knob::Occlusion | Knob::Depth => format!("{num}"),

@@ -12,21 +12,22 @@
 //! Every time is the median of `--runs` runs; speedups are against the 1-worker time of the same
 //! column in the same run.
 
+use super::stats::median;
 use crate::cluster::link::Link;
 use crate::cluster::local::render_local;
 use crate::cluster::master::{run_master, ClusterImage, MasterOptions};
 use crate::cluster::model::{simulate, ModelParams};
 use crate::cluster::prepared::PreparedScene;
 use crate::generate;
-use anyhow::{anyhow, Context as _};
-use std::io::{BufRead as _, BufReader, Write as _};
+use anyhow::{anyhow, bail, Context as _};
+use std::io::{BufRead as _, BufReader, Write};
 use std::num::NonZeroUsize;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
-use strahl_core::scene::RenderSettings;
+use strahl_core::scene::{RenderSettings, Scene, SceneDesc};
 
 /// Arguments of `strahl bench scaling`.
 #[derive(Debug, clap::Args)]
@@ -59,11 +60,6 @@ pub struct ScalingArgs {
     pub no_tcp: bool,
 }
 
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v.get(v.len() / 2).copied().unwrap_or_default()
-}
-
 /// A `strahl worker` process on loopback, killed when dropped.
 struct WorkerProcess {
     child: Child,
@@ -93,7 +89,11 @@ fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
         child,
         address: String::new(),
     };
-    let stderr = stderr.ok_or_else(|| anyhow!("worker process without stderr"))?;
+    let Some(stderr) = stderr else {
+        // Stdio::piped() above gives every child a stderr.
+        debug_assert!(false, "a worker process without stderr");
+        bail!("worker process without stderr");
+    };
     let mut lines = BufReader::new(stderr).lines();
     let first = lines.next().transpose()?.unwrap_or_default();
     w.address = first
@@ -106,6 +106,11 @@ fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
     Ok(w)
 }
 
+/// Worker processes 1 to `n`.
+fn start_worker_processes(n: u32) -> anyhow::Result<Vec<WorkerProcess>> {
+    (1..=n).map(start_worker_process).collect()
+}
+
 fn tcp_render(
     prepared: &PreparedScene,
     workers: &[WorkerProcess],
@@ -113,7 +118,7 @@ fn tcp_render(
 ) -> anyhow::Result<ClusterImage> {
     let mut links = Vec::new();
     for w in workers {
-        let stream = strahl_tcp::connect(&w.address, Duration::from_secs(5))
+        let stream = strahl_tcp::connect(&w.address, strahl_tcp::CONNECT_TIMEOUT)
             .with_context(|| format!("cannot reach worker {}", w.address))?;
         links.push(Link::from_tcp(w.address.clone(), stream)?);
     }
@@ -148,11 +153,112 @@ fn secs(t: Option<Duration>) -> String {
     t.map_or("-".to_string(), |t| format!("{:.3}", t.as_secs_f64()))
 }
 
+/// The median wall time of `runs` calls of `f`.
+fn timed(runs: usize, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<Duration> {
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs {
+        let t = Instant::now();
+        f()?;
+        times.push(t.elapsed());
+    }
+    Ok(median(times))
+}
+
+/// The cost in seconds of every line on one core, the model's input (median of the runs per
+/// line).
+fn line_costs(scene: &Scene, width: u32, height: u32, runs: usize) -> anyhow::Result<Vec<f64>> {
+    let mut row = vec![Pixel::default(); width as usize];
+    let mut costs = vec![Vec::with_capacity(runs); height as usize];
+    for _ in 0..runs {
+        for (y, c) in costs.iter_mut().enumerate() {
+            let t = Instant::now();
+            render_line(scene, y as u32, &mut row).map_err(|e| anyhow!("line {y}: {e}"))?;
+            c.push(t.elapsed());
+        }
+    }
+    Ok(costs.into_iter().map(|c| median(c).as_secs_f64()).collect())
+}
+
+/// The scene `desc` with one tiny triangle out of view in place of its own: a render of it is
+/// all protocol, framing and scheduling.
+fn empty_scene(desc: &SceneDesc) -> anyhow::Result<PreparedScene> {
+    let mut d = desc.clone();
+    d.points = vec![
+        glam::Vec3::new(0.0, -1e3, 0.0),
+        glam::Vec3::new(1e-3, -1e3, 0.0),
+        glam::Vec3::new(0.0, -1e3, 1e-3),
+    ];
+    // Behind the camera (at y = −100, looking along +y): every ray misses.
+    d.triangles.truncate(1);
+    if let Some(t) = d.triangles.first_mut() {
+        t.points = [0, 1, 2];
+    }
+    PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))
+}
+
+/// The median time of `prepared` on 1 to `max` in-process workers.
+fn in_process_times(
+    prepared: &PreparedScene,
+    max: usize,
+    runs: usize,
+) -> anyhow::Result<Vec<Duration>> {
+    (1..=max)
+        .map(|n| {
+            timed(runs, || {
+                render_local(prepared, n, &|_, _| {})?;
+                Ok(())
+            })
+        })
+        .collect()
+}
+
+/// The median time of `prepared` on the first 1 to all of `procs`.
+fn tcp_times(
+    prepared: &PreparedScene,
+    procs: &[WorkerProcess],
+    opts: &MasterOptions,
+    runs: usize,
+) -> anyhow::Result<Vec<Duration>> {
+    (1..=procs.len())
+        .map(|n| {
+            timed(runs, || {
+                tcp_render(prepared, &procs[..n], opts)?;
+                Ok(())
+            })
+        })
+        .collect()
+}
+
+/// What the table is made of, measured.
+struct Measured {
+    cores: u32,
+    max_real: u32,
+    runs: usize,
+    triangles: usize,
+    /// Seconds to trace every line once on one core.
+    traced: f64,
+    /// The master's time per result, in seconds.
+    master_time: f64,
+    /// One-way latency in the model, in seconds.
+    latency: f64,
+    /// Whether the TCP worker processes ran.
+    tcp_used: bool,
+    in_process: Vec<Duration>,
+    tcp: Vec<Duration>,
+    rows: Vec<Row>,
+}
+
 /// Runs `strahl bench scaling` and prints the table on stdout.
 ///
 /// # Errors
 /// If a worker process cannot be started or reached, or a render fails.
 pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
+    let measured = measure(args)?;
+    print_table(&mut std::io::stdout().lock(), args, &measured)
+}
+
+/// Measures the in-process and TCP times and runs the model.
+fn measure(args: &ScalingArgs) -> anyhow::Result<Measured> {
     let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get) as u32;
     let max_real = args.max_real.unwrap_or(cores).max(1);
     let runs = args.runs.max(1) as usize;
@@ -169,81 +275,33 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
         window: args.window,
         ..MasterOptions::default()
     };
-
-    // The cost of every line on one core, the model's input (median of the runs per line).
-    let scene = &prepared.scene;
-    let mut row = vec![Pixel::default(); args.width as usize];
-    let mut costs = vec![Vec::with_capacity(runs); args.height as usize];
-    for _ in 0..runs {
-        for (y, c) in costs.iter_mut().enumerate() {
-            let t = Instant::now();
-            render_line(scene, y as u32, &mut row).map_err(|e| anyhow!("line {y}: {e}"))?;
-            c.push(t.elapsed());
-        }
-    }
-    let line_costs: Vec<f64> = costs.into_iter().map(|c| median(c).as_secs_f64()).collect();
+    let line_costs = line_costs(&prepared.scene, args.width, args.height, runs)?;
     let traced: f64 = line_costs.iter().sum();
 
-    let mut in_process = Vec::new();
-    for n in 1..=max_real {
-        let mut times = Vec::with_capacity(runs);
-        for _ in 0..runs {
-            let t = Instant::now();
-            render_local(&prepared, n as usize, &|_, _| {})?;
-            times.push(t.elapsed());
-        }
-        in_process.push(median(times));
-    }
+    let in_process = in_process_times(&prepared, max_real as usize, runs)?;
 
-    let tcp_procs: Option<Vec<WorkerProcess>> = if args.no_tcp {
+    let tcp_procs = if args.no_tcp {
         None
     } else {
-        Some(
-            (1..=max_real)
-                .map(start_worker_process)
-                .collect::<anyhow::Result<_>>()?,
-        )
+        Some(start_worker_processes(max_real)?)
     };
-    let mut tcp = Vec::new();
-    if let Some(procs) = &tcp_procs {
-        for n in 1..=max_real as usize {
-            let mut times = Vec::with_capacity(runs);
-            for _ in 0..runs {
-                let t = Instant::now();
-                tcp_render(&prepared, &procs[..n], &opts)?;
-                times.push(t.elapsed());
-            }
-            tcp.push(median(times));
-        }
-    }
+    let tcp = match &tcp_procs {
+        Some(procs) => tcp_times(&prepared, procs, &opts, runs)?,
+        None => Vec::new(),
+    };
 
-    // The master's time per result: a TCP render of the same image size whose rays hit
-    // nothing (one tiny triangle out of view) is all protocol, framing and scheduling.
-    let empty = {
-        let mut d = desc.clone();
-        d.points = vec![
-            glam::Vec3::new(0.0, -1e3, 0.0),
-            glam::Vec3::new(1e-3, -1e3, 0.0),
-            glam::Vec3::new(0.0, -1e3, 1e-3),
-        ];
-        // Behind the camera (at y = −100, looking along +y): every ray misses.
-        d.triangles.truncate(1);
-        if let Some(t) = d.triangles.first_mut() {
-            t.points = [0, 1, 2];
-        }
-        PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))?
-    };
-    let mut empty_times = Vec::with_capacity(runs);
-    for _ in 0..runs {
-        let t = Instant::now();
+    // The master's time per result: a render of the same image size whose rays hit nothing,
+    // over TCP where the workers run.
+    let empty = empty_scene(&desc)?;
+    let empty_time = timed(runs, || {
         if let Some(procs) = tcp_procs.as_deref() {
             tcp_render(&empty, &procs[..1], &opts)?;
         } else {
             render_local(&empty, 1, &|_, _| {})?;
         }
-        empty_times.push(t.elapsed());
-    }
-    let master_time = median(empty_times).as_secs_f64() / f64::from(args.height);
+        Ok(())
+    })?;
+    let master_time = empty_time.as_secs_f64() / f64::from(args.height);
     let latency = 50e-6;
     let model = |n: u32| {
         simulate(&ModelParams {
@@ -263,23 +321,44 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
             model: model(n),
         })
         .collect();
+    Ok(Measured {
+        cores,
+        max_real,
+        runs,
+        triangles: prepared.scene.triangle_points.len(),
+        traced,
+        master_time,
+        latency,
+        tcp_used: tcp_procs.is_some(),
+        in_process,
+        tcp,
+        rows,
+    })
+}
 
-    let mut out = std::io::stdout().lock();
+/// The report: what was measured, then a row per worker count.
+fn print_table(out: &mut impl Write, args: &ScalingArgs, m: &Measured) -> anyhow::Result<()> {
+    let Measured {
+        cores,
+        max_real,
+        runs,
+        traced,
+        master_time,
+        latency,
+        ..
+    } = *m;
     writeln!(
         out,
         "strahl bench scaling: demo room {}x{} with reflections, {} triangles; {cores} CPUs here; \
          window {}; median of {runs} runs",
-        args.width,
-        args.height,
-        scene.triangle_points.len(),
-        args.window
+        args.width, args.height, m.triangles, args.window
     )?;
     writeln!(
         out,
         "tracing all lines on one core: {traced:.3} s; model: master time per result {:.1} µs \
          (measured with an empty image{}), one-way latency {:.0} µs",
         master_time * 1e6,
-        if tcp_procs.is_some() {
+        if m.tcp_used {
             " over TCP"
         } else {
             " in-process"
@@ -298,8 +377,8 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
         "speedup",
         "efficiency"
     )?;
-    let base_model = rows.first().map_or(0.0, |r| r.model);
-    for r in &rows {
+    let base_model = m.rows.first().map_or(0.0, |r| r.model);
+    for r in &m.rows {
         let model_speedup = if r.model > 0.0 {
             base_model / r.model
         } else {
@@ -310,9 +389,9 @@ pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
             "{:>7} | {:>13} {:>7} | {:>13} {:>7} | {:>9.3} {:>7.2} {:>9.0}%",
             r.workers,
             secs(r.in_process),
-            speedup(in_process.first().copied(), r.in_process),
+            speedup(m.in_process.first().copied(), r.in_process),
             secs(r.tcp),
-            speedup(tcp.first().copied(), r.tcp),
+            speedup(m.tcp.first().copied(), r.tcp),
             r.model,
             model_speedup,
             100.0 * model_speedup / f64::from(r.workers),

@@ -1,7 +1,26 @@
 //! The Markdown report: method, scenes, references and residuals, the results table, and a
 //! paragraph per knob.
 
-use super::*;
+use super::conclusions::{
+    adaptive_conclusion, all_same, cutoff_conclusion, depth_conclusion, multisample_conclusion,
+    occlusion_conclusion, octree_conclusion, precision_conclusion, share, sweep_of,
+};
+use super::format::{
+    fmt_psnr, fmt_ratio, fmt_rays, fmt_secs, fmt_ssim, join_values, percent, rmse_change,
+    row_cells, settings_summary, sig3, sig_pair,
+};
+use super::metrics::pareto_front;
+use super::plan::Setting;
+use super::wire::{fmt_bytes, serial_seconds, PIXEL_WIRE_BYTES_8};
+use super::{
+    residual_probe_samples, AccuracyArgs, Knob, RefKind, Row, SceneRun, MIN_RUN,
+    OCCLUSION_REFERENCE_SAMPLES, REFERENCE_DEPTH, REFERENCE_SAMPLES,
+};
+use std::fmt::Write as _;
+use std::time::Duration;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_SAMPLES};
+use strahl_core::wire::PIXEL_WIRE_BYTES;
 
 pub(super) fn rows_of(rows: &[Row], scene: usize, knob: Knob) -> Vec<&Row> {
     rows.iter()
@@ -64,14 +83,6 @@ pub(super) fn identical_groups(rows: &[&Row], scene: &SceneRun) -> Vec<Vec<Strin
         .collect()
 }
 
-pub(super) fn join_values(v: &[String]) -> String {
-    match v {
-        [] => String::new(),
-        [a] => a.clone(),
-        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
-    }
-}
-
 pub(super) fn identical_note(rows: &[&Row], scene: &SceneRun, what: &str) -> String {
     let groups = identical_groups(rows, scene);
     if groups.is_empty() {
@@ -92,6 +103,25 @@ pub(super) fn identical_note(rows: &[&Row], scene: &SceneRun, what: &str) -> Str
     }
 }
 
+/// What one knob's paragraph about one scene draws on.
+struct Section<'a> {
+    knob: Knob,
+    /// The scene's index.
+    si: usize,
+    sc: &'a SceneRun,
+    /// Every row of every scene.
+    rows: &'a [Row],
+    /// The scene's rows of this knob.
+    rs: Vec<&'a Row>,
+    /// The scene's multisample rows.
+    multisample: Vec<&'a Row>,
+    /// The baseline's RMSE against the reference as a sentence (empty when unknown).
+    scale: String,
+    /// The residual of the reference these rows are compared with.
+    residual: f64,
+}
+
+/// The paragraph on `knob`: one item per scene that has rows of it.
 pub(super) fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String {
     let mut text = String::new();
     for (si, sc) in scenes.iter().enumerate() {
@@ -114,324 +144,390 @@ pub(super) fn paragraph(knob: Knob, scenes: &[SceneRun], rows: &[Row]) -> String
         let residual = sc.residual(rs[0].reference);
         let _ = write!(text, "- **{}.** ", sc.name);
         let body_start = text.len();
-        match knob {
-            Knob::Multisample => {
-                let first = rs[0];
-                let _ = write!(
-                    text,
-                    "Multisample {} ({} s) has RMSE {} (PSNR {} dB, SSIM {}).",
-                    first.short.trim_start_matches('m'),
-                    fmt_secs(first.time),
-                    sig3(first.errors.rmse),
-                    fmt_psnr(first.errors.psnr),
-                    fmt_ssim(first.errors.ssim)
-                );
-                for r in rs.iter().skip(1).filter(|r| {
-                    let m = r.short.trim_start_matches('m');
-                    ["2", "4", "8"].contains(&m) || r.measured == rs[rs.len() - 1].measured
-                }) {
-                    let _ = write!(
-                        text,
-                        " Multisample {} costs {} the time and {} (PSNR {} dB, SSIM {}).",
-                        r.short.trim_start_matches('m'),
-                        fmt_ratio(r.ratio),
-                        rmse_change(first.errors.rmse, r.errors.rmse),
-                        fmt_psnr(r.errors.psnr),
-                        fmt_ssim(r.errors.ssim)
-                    );
-                }
-                if let Some(last) = rs.last() {
-                    let drop = first.errors.rmse - last.errors.rmse;
-                    if drop > 0.0 && rs.len() > 2 {
-                        for share in [0.5, 0.9] {
-                            if let Some(r) = rs
-                                .iter()
-                                .find(|r| first.errors.rmse - r.errors.rmse >= share * drop)
-                            {
-                                let _ = write!(
-                                    text,
-                                    " {:.0} % of the RMSE reduction from {} to {} is reached at multisample {} ({}).",
-                                    share * 100.0,
-                                    first.short.trim_start_matches('m'),
-                                    last.short.trim_start_matches('m'),
-                                    r.short.trim_start_matches('m'),
-                                    fmt_ratio(r.ratio)
-                                );
-                            }
-                        }
-                    }
-                    if last.errors.rmse == 0.0 {
-                        let _ = write!(
-                            text,
-                            " Multisample {} is the reference's own setting for this scene \
-                             (the other reference settings change nothing here), hence error 0.",
-                            last.short.trim_start_matches('m')
-                        );
-                    }
-                }
-                let b = &sc.baseline;
-                let other = (b.reflections
-                    && (b.min_reflection_weight != 0.0 || b.max_depth != REFERENCE_DEPTH))
-                    .then(|| {
-                        format!(
-                            "its cut-off ({} against 0) and depth cap ({} against \
-                             {REFERENCE_DEPTH})",
-                            percent(b.min_reflection_weight),
-                            b.max_depth
-                        )
-                    });
-                text.push_str(&multisample_conclusion(
-                    &sweep_of(&rs, sc),
-                    other.as_deref(),
-                ));
-            }
-            Knob::Adaptive => {
-                let full = multisample.iter().copied().find(|r| r.short == "m4");
-                if let Some(f) = full {
-                    let _ = write!(
-                        text,
-                        "Full multisample 4 costs {} with RMSE {}.",
-                        fmt_ratio(f.ratio),
-                        sig3(f.errors.rmse)
-                    );
-                }
-                if !sc.baseline.skip_effects {
-                    let _ = write!(
-                        text,
-                        " The scene has skip-effects off, so the second pass supersamples every \
-                         pixel and keeps only the flagged ones: adaptive multisampling saves no \
-                         rays here."
-                    );
-                }
-                let pixels = u64::from(sc.baseline.width) * u64::from(sc.baseline.height);
-                for r in &rs {
-                    let m = &sc.measured[r.measured];
-                    let per_pixel = u64::from(m.config.settings.samples).pow(2).max(1);
-                    let refined = if sc.baseline.skip_effects && pixels > 0 {
-                        format!(
-                            "; {:.1} % of pixels refined",
-                            share((m.rays.extra_samples / per_pixel) as f64, pixels as f64)
-                        )
-                    } else {
-                        String::new()
-                    };
-                    let _ = write!(text, " Threshold {}: {}{refined}.", r.value, figures(r));
-                }
-                if let Some(f) = full {
-                    let mut all = vec![f];
-                    all.extend(rs.iter().copied());
-                    let k = all.len();
-                    all.extend(multisample.iter().copied());
-                    let sw = sweep_of(&all, sc);
-                    text.push_str(&identical_note(&rs, sc, "threshold"));
-                    text.push_str(&adaptive_conclusion(&sw, 1..k, k..all.len()));
-                } else {
-                    text.push_str(&identical_note(&rs, sc, "threshold"));
-                }
-            }
-            Knob::Cutoff | Knob::Depth => {
-                if sc.reflections_forced {
-                    let _ = write!(
-                        text,
-                        "The scene has reflections off; this sweep turns them on and compares \
-                         with the reference with reflections on.{scale}"
-                    );
-                }
-                for r in &rs {
-                    let rays = sc.measured[r.measured].rays;
-                    let _ = write!(
-                        text,
-                        " {} {}: {}; {} reflection and {} refraction rays.",
-                        if knob == Knob::Cutoff {
-                            "Cut-off"
-                        } else {
-                            "Depth cap"
-                        },
-                        r.value,
-                        figures(r),
-                        rays.reflection,
-                        rays.refraction
-                    );
-                }
-                text.push_str(&identical_note(
-                    &rs,
-                    sc,
-                    if knob == Knob::Cutoff {
-                        "cut-off"
-                    } else {
-                        "depth cap"
-                    },
-                ));
-                let sw = sweep_of(&rs, sc);
-                let same = all_same(&rs, sc);
-                if knob == Knob::Cutoff {
-                    let own = sw
-                        .points
-                        .iter()
-                        .position(|q| q.num == f64::from(sc.baseline.min_reflection_weight));
-                    let m = |n: u32| {
-                        multisample
-                            .iter()
-                            .find(|r| r.short == format!("m{n}"))
-                            .map(|r| r.errors.rmse)
-                    };
-                    let aliasing = m(1).zip(m(2)).map(|(a, b)| a - b).filter(|&d| d > 0.0);
-                    text.push_str(&cutoff_conclusion(&sw, own, aliasing, same));
-                } else {
-                    let own = sw
-                        .points
-                        .iter()
-                        .position(|q| q.num == f64::from(sc.baseline.max_depth));
-                    text.push_str(&depth_conclusion(&sw, own, same));
-                }
-            }
-            Knob::Occlusion => {
-                let level = sc.baseline.ambient_occlusion;
-                if level == 0 {
-                    let _ = write!(
-                        text,
-                        "The scene does not use ambient occlusion (level 0); the sweep turns it \
-                         on and compares with the reference at level 9, so level 0's error \
-                         includes the occlusion the scene leaves out."
-                    );
-                } else {
-                    let _ = write!(
-                        text,
-                        "The scene uses level {level}; compared with the reference at level 9."
-                    );
-                }
-                text.push_str(&scale);
-                let _ = write!(text, " That reference's residual is {}.", sig3(residual));
-                for r in &rs {
-                    let rays = sc.measured[r.measured].rays;
-                    let _ = write!(
-                        text,
-                        " Level {}: {}; {} occlusion rays.",
-                        r.value,
-                        figures(r),
-                        fmt_rays(rays.occlusion)
-                    );
-                }
-                text.push_str(&identical_note(&rs, sc, "level"));
-                let reference = sc
-                    .references
-                    .iter()
-                    .find(|r| r.kinds.contains(&RefKind::Occlusion9))
-                    .map_or_else(
-                        || "level-9 reference".to_string(),
-                        |r| {
-                            format!(
-                                "level-9 reference ({} rays per shaded point, multisample {})",
-                                MAX_AMBIENT_OCCLUSION * MAX_AMBIENT_OCCLUSION,
-                                r.settings.samples
-                            )
-                        },
-                    );
-                text.push_str(&occlusion_conclusion(&sweep_of(&rs, sc), level, &reference));
-            }
-            Knob::OctreeDepth | Knob::OctreeLeaf => {
-                let leaves = rows_of(rows, si, Knob::OctreeLeaf);
-                let all = rs.len()
-                    + if knob == Knob::OctreeDepth {
-                        leaves.len()
-                    } else {
-                        0
-                    };
-                let _ = write!(
-                    text,
-                    "No setting changed a pixel: all {all} renders are identical to the default \
-                     octree's (depth {}, leaf size {}).",
-                    OctreeParams::default().max_depth,
-                    OctreeParams::default().max_leaf_triangles
-                );
-                let mut groups = vec![(knob, rs.clone())];
-                if knob == Knob::OctreeDepth {
-                    groups.push((Knob::OctreeLeaf, leaves));
-                }
-                let mut times = Vec::new();
-                for (k, g) in groups {
-                    let listed: Vec<String> = g
-                        .iter()
-                        .map(|r| format!("{}: {}", r.value, fmt_ratio(r.ratio)))
-                        .collect();
-                    let _ = write!(
-                        text,
-                        " Render time against the baseline by {}: {}.",
-                        k.name(),
-                        listed.join(", ")
-                    );
-                    times.extend(g.iter().map(|r| (r.short.clone(), r.ratio)));
-                }
-                text.push_str(&octree_conclusion(&times, sc.noise().map(|(n, _)| n)));
-            }
-            Knob::Precision => {
-                let q = sc.quantization;
-                let wire = &sc.wire;
-                let (sixteen, eight) = (
-                    rs.iter().find(|r| !r.eight_bit),
-                    rs.iter().find(|r| r.eight_bit),
-                );
-                let _ = write!(
-                    text,
-                    "Quantising the baseline to 8 bits per channel and back differs from its \
-                     16-bit pixels by RMSE {} (PSNR {} dB, SSIM {}).",
-                    sig3(q.rmse),
-                    fmt_psnr(q.psnr),
-                    fmt_ssim(q.ssim)
-                );
-                if let (Some(a), Some(b)) = (sixteen, eight) {
-                    let _ = write!(
-                        text,
-                        " Against the reference, the baseline's RMSE is {} with 16-bit pixels and \
-                         {} with 8-bit ones.",
-                        sig_pair(a.errors.rmse, b.errors.rmse).0,
-                        sig_pair(a.errors.rmse, b.errors.rmse).1
-                    );
-                }
-                let baud = strahl_serial::DEFAULT_BAUD;
-                let _ = write!(
-                    text,
-                    " On the wire (the protocol carries 16-bit pixels only) a line result of {} \
-                     pixels is {:.0} bytes framed ({} of them pixel bytes), the image's {} line \
-                     results {} bytes; with 8-bit pixels they would be {:.0} bytes ({} pixel \
-                     bytes) and {} bytes, {:.0} % less. Over a serial line at the default {baud} \
-                     baud (8N1) that is {:.1} s against {:.1} s per image.",
-                    wire.width,
-                    wire.per_line(false),
-                    wire.pixel_bytes(false),
-                    wire.lines,
-                    fmt_bytes(wire.image16),
-                    wire.per_line(true),
-                    wire.pixel_bytes(true),
-                    fmt_bytes(wire.image8),
-                    wire.saving() * 100.0,
-                    serial_seconds(wire.image16, baud),
-                    serial_seconds(wire.image8, baud)
-                );
-                if let (Some(a), Some(b)) = (sixteen, eight) {
-                    let mut sw = sweep_of(&[*a, *b], sc);
-                    sw.dist[0][1] = q.rmse;
-                    sw.dist[1][0] = q.rmse;
-                    // The render closest to the main reference (octree rows are the baseline).
-                    let closest = rows
-                        .iter()
-                        .filter(|r| r.scene == si && r.reference == RefKind::Main && !r.eight_bit)
-                        .min_by(|x, y| x.errors.rmse.total_cmp(&y.errors.rmse))
-                        .map(|r| (format!("{} {}", r.knob.name(), r.value), r.errors.rmse));
-                    text.push_str(&precision_conclusion(
-                        &sw,
-                        q.rmse,
-                        closest.as_ref().map(|(l, e)| (l.as_str(), *e)),
-                        wire,
-                    ));
-                }
-            }
-        }
+        let section = Section {
+            knob,
+            si,
+            sc,
+            rows,
+            rs,
+            multisample,
+            scale,
+            residual,
+        };
+        let body = match knob {
+            Knob::Multisample => multisample_text,
+            Knob::Adaptive => adaptive_text,
+            Knob::Cutoff | Knob::Depth => reflection_text,
+            Knob::Occlusion => occlusion_text,
+            Knob::OctreeDepth | Knob::OctreeLeaf => octree_text,
+            Knob::Precision => precision_text,
+        };
+        body(&section, &mut text);
         let body = text.split_off(body_start);
         text.push_str(body.trim_start());
         text.push('\n');
     }
     text
+}
+
+/// The multisample sweep: the first setting, the big steps, where most of the gain is reached.
+fn multisample_text(s: &Section<'_>, text: &mut String) {
+    let &Section { sc, ref rs, .. } = s;
+    let first = rs[0];
+    let _ = write!(
+        text,
+        "Multisample {} ({} s) has RMSE {} (PSNR {} dB, SSIM {}).",
+        first.setting,
+        fmt_secs(first.time),
+        sig3(first.errors.rmse),
+        fmt_psnr(first.errors.psnr),
+        fmt_ssim(first.errors.ssim)
+    );
+    for r in rs.iter().skip(1).filter(|r| {
+        [2, 4, 8].map(Setting::Whole).contains(&r.setting)
+            || r.measured == rs[rs.len() - 1].measured
+    }) {
+        let _ = write!(
+            text,
+            " Multisample {} costs {} the time and {} (PSNR {} dB, SSIM {}).",
+            r.setting,
+            fmt_ratio(r.ratio),
+            rmse_change(first.errors.rmse, r.errors.rmse),
+            fmt_psnr(r.errors.psnr),
+            fmt_ssim(r.errors.ssim)
+        );
+    }
+    if let Some(last) = rs.last() {
+        let drop = first.errors.rmse - last.errors.rmse;
+        if drop > 0.0 && rs.len() > 2 {
+            for share in [0.5, 0.9] {
+                if let Some(r) = rs
+                    .iter()
+                    .find(|r| first.errors.rmse - r.errors.rmse >= share * drop)
+                {
+                    let _ = write!(
+                        text,
+                        " {:.0} % of the RMSE reduction from {} to {} is reached at multisample {} ({}).",
+                        share * 100.0,
+                        first.setting,
+                        last.setting,
+                        r.setting,
+                        fmt_ratio(r.ratio)
+                    );
+                }
+            }
+        }
+        if last.errors.rmse == 0.0 {
+            let _ = write!(
+                text,
+                " Multisample {} is the reference's own setting for this scene \
+                 (the other reference settings change nothing here), hence error 0.",
+                last.setting
+            );
+        }
+    }
+    let b = &sc.baseline;
+    let other = (b.reflections
+        && (b.min_reflection_weight != 0.0 || b.max_depth != REFERENCE_DEPTH))
+        .then(|| {
+            format!(
+                "its cut-off ({} against 0) and depth cap ({} against \
+                 {REFERENCE_DEPTH})",
+                percent(b.min_reflection_weight),
+                b.max_depth
+            )
+        });
+    text.push_str(&multisample_conclusion(&sweep_of(rs, sc), other.as_deref()));
+}
+
+/// The adaptive threshold against full multisample 4: time, error and pixels refined.
+fn adaptive_text(s: &Section<'_>, text: &mut String) {
+    let &Section {
+        sc,
+        ref rs,
+        ref multisample,
+        ..
+    } = s;
+    let full = multisample
+        .iter()
+        .copied()
+        .find(|r| r.setting == Setting::Whole(4));
+    if let Some(f) = full {
+        let _ = write!(
+            text,
+            "Full multisample 4 costs {} with RMSE {}.",
+            fmt_ratio(f.ratio),
+            sig3(f.errors.rmse)
+        );
+    }
+    if !sc.baseline.skip_effects {
+        let _ = write!(
+            text,
+            " The scene has skip-effects off, so the second pass supersamples every \
+             pixel and keeps only the flagged ones: adaptive multisampling saves no \
+             rays here."
+        );
+    }
+    let pixels = u64::from(sc.baseline.width) * u64::from(sc.baseline.height);
+    for r in rs {
+        let m = &sc.measured[r.measured];
+        let per_pixel = u64::from(m.config.settings.samples).pow(2).max(1);
+        let refined = if sc.baseline.skip_effects && pixels > 0 {
+            format!(
+                "; {:.1} % of pixels refined",
+                share((m.rays.extra_samples / per_pixel) as f64, pixels as f64)
+            )
+        } else {
+            String::new()
+        };
+        let _ = write!(text, " Threshold {}: {}{refined}.", r.value, figures(r));
+    }
+    if let Some(f) = full {
+        let mut all = vec![f];
+        all.extend(rs.iter().copied());
+        let k = all.len();
+        all.extend(multisample.iter().copied());
+        let sw = sweep_of(&all, sc);
+        text.push_str(&identical_note(rs, sc, "threshold"));
+        text.push_str(&adaptive_conclusion(&sw, 1..k, k..all.len()));
+    } else {
+        text.push_str(&identical_note(rs, sc, "threshold"));
+    }
+}
+
+/// The reflection cut-off or depth cap sweep: error and reflection and refraction rays.
+fn reflection_text(s: &Section<'_>, text: &mut String) {
+    let &Section {
+        knob,
+        sc,
+        ref rs,
+        ref multisample,
+        ref scale,
+        ..
+    } = s;
+    if sc.reflections_forced {
+        let _ = write!(
+            text,
+            "The scene has reflections off; this sweep turns them on and compares \
+             with the reference with reflections on.{scale}"
+        );
+    }
+    for r in rs {
+        let rays = sc.measured[r.measured].rays;
+        let _ = write!(
+            text,
+            " {} {}: {}; {} reflection and {} refraction rays.",
+            if knob == Knob::Cutoff {
+                "Cut-off"
+            } else {
+                "Depth cap"
+            },
+            r.value,
+            figures(r),
+            rays.reflection,
+            rays.refraction
+        );
+    }
+    text.push_str(&identical_note(
+        rs,
+        sc,
+        if knob == Knob::Cutoff {
+            "cut-off"
+        } else {
+            "depth cap"
+        },
+    ));
+    let sw = sweep_of(rs, sc);
+    let same = all_same(rs, sc);
+    if knob == Knob::Cutoff {
+        let own = sw
+            .points
+            .iter()
+            .position(|q| q.num == f64::from(sc.baseline.min_reflection_weight));
+        let m = |n: u32| {
+            multisample
+                .iter()
+                .find(|r| r.setting == Setting::Whole(n))
+                .map(|r| r.errors.rmse)
+        };
+        let aliasing = m(1).zip(m(2)).map(|(a, b)| a - b).filter(|&d| d > 0.0);
+        text.push_str(&cutoff_conclusion(&sw, own, aliasing, same));
+    } else {
+        let own = sw
+            .points
+            .iter()
+            .position(|q| q.num == f64::from(sc.baseline.max_depth));
+        text.push_str(&depth_conclusion(&sw, own, same));
+    }
+}
+
+/// The ambient-occlusion levels against the level-9 reference.
+fn occlusion_text(s: &Section<'_>, text: &mut String) {
+    let &Section {
+        sc,
+        ref rs,
+        ref scale,
+        residual,
+        ..
+    } = s;
+    let level = sc.baseline.ambient_occlusion;
+    if level == 0 {
+        let _ = write!(
+            text,
+            "The scene does not use ambient occlusion (level 0); the sweep turns it \
+             on and compares with the reference at level 9, so level 0's error \
+             includes the occlusion the scene leaves out."
+        );
+    } else {
+        let _ = write!(
+            text,
+            "The scene uses level {level}; compared with the reference at level 9."
+        );
+    }
+    text.push_str(scale);
+    let _ = write!(text, " That reference's residual is {}.", sig3(residual));
+    for r in rs {
+        let rays = sc.measured[r.measured].rays;
+        let _ = write!(
+            text,
+            " Level {}: {}; {} occlusion rays.",
+            r.value,
+            figures(r),
+            fmt_rays(rays.occlusion)
+        );
+    }
+    text.push_str(&identical_note(rs, sc, "level"));
+    let reference = sc
+        .references
+        .iter()
+        .find(|r| r.kinds.contains(&RefKind::Occlusion9))
+        .map_or_else(
+            || "level-9 reference".to_string(),
+            |r| {
+                format!(
+                    "level-9 reference ({} rays per shaded point, multisample {})",
+                    MAX_AMBIENT_OCCLUSION * MAX_AMBIENT_OCCLUSION,
+                    r.settings.samples
+                )
+            },
+        );
+    text.push_str(&occlusion_conclusion(&sweep_of(rs, sc), level, &reference));
+}
+
+/// The octree depth and leaf size: identical images, and their render times.
+fn octree_text(s: &Section<'_>, text: &mut String) {
+    let &Section {
+        knob,
+        si,
+        sc,
+        rows,
+        ref rs,
+        ..
+    } = s;
+    let leaves = rows_of(rows, si, Knob::OctreeLeaf);
+    let all = rs.len()
+        + if knob == Knob::OctreeDepth {
+            leaves.len()
+        } else {
+            0
+        };
+    let _ = write!(
+        text,
+        "No setting changed a pixel: all {all} renders are identical to the default \
+         octree's (depth {}, leaf size {}).",
+        OctreeParams::default().max_depth,
+        OctreeParams::default().max_leaf_triangles
+    );
+    let mut groups = vec![(knob, rs.clone())];
+    if knob == Knob::OctreeDepth {
+        groups.push((Knob::OctreeLeaf, leaves));
+    }
+    let mut times = Vec::new();
+    for (k, g) in groups {
+        let listed: Vec<String> = g
+            .iter()
+            .map(|r| format!("{}: {}", r.value, fmt_ratio(r.ratio)))
+            .collect();
+        let _ = write!(
+            text,
+            " Render time against the baseline by {}: {}.",
+            k.name(),
+            listed.join(", ")
+        );
+        times.extend(g.iter().map(|r| (r.short.clone(), r.ratio)));
+    }
+    text.push_str(&octree_conclusion(&times, sc.noise().map(|(n, _)| n)));
+}
+
+/// 8 against 16 bits per channel: the quantisation error and the bytes on the wire.
+fn precision_text(s: &Section<'_>, text: &mut String) {
+    let &Section {
+        si,
+        sc,
+        rows,
+        ref rs,
+        ..
+    } = s;
+    let q = sc.quantization;
+    let wire = &sc.wire;
+    let (sixteen, eight) = (
+        rs.iter().find(|r| !r.eight_bit),
+        rs.iter().find(|r| r.eight_bit),
+    );
+    let _ = write!(
+        text,
+        "Quantising the baseline to 8 bits per channel and back differs from its \
+         16-bit pixels by RMSE {} (PSNR {} dB, SSIM {}).",
+        sig3(q.rmse),
+        fmt_psnr(q.psnr),
+        fmt_ssim(q.ssim)
+    );
+    if let (Some(a), Some(b)) = (sixteen, eight) {
+        let _ = write!(
+            text,
+            " Against the reference, the baseline's RMSE is {} with 16-bit pixels and \
+             {} with 8-bit ones.",
+            sig_pair(a.errors.rmse, b.errors.rmse).0,
+            sig_pair(a.errors.rmse, b.errors.rmse).1
+        );
+    }
+    let baud = strahl_serial::DEFAULT_BAUD;
+    let _ = write!(
+        text,
+        " On the wire (the protocol carries 16-bit pixels only) a line result of {} \
+         pixels is {:.0} bytes framed ({} of them pixel bytes), the image's {} line \
+         results {} bytes; with 8-bit pixels they would be {:.0} bytes ({} pixel \
+         bytes) and {} bytes, {:.0} % less. Over a serial line at the default {baud} \
+         baud (8N1) that is {:.1} s against {:.1} s per image.",
+        wire.width,
+        wire.per_line(false),
+        wire.pixel_bytes(false),
+        wire.lines,
+        fmt_bytes(wire.image16),
+        wire.per_line(true),
+        wire.pixel_bytes(true),
+        fmt_bytes(wire.image8),
+        wire.saving() * 100.0,
+        serial_seconds(wire.image16, baud),
+        serial_seconds(wire.image8, baud)
+    );
+    if let (Some(a), Some(b)) = (sixteen, eight) {
+        let mut sw = sweep_of(&[*a, *b], sc);
+        sw.dist[0][1] = q.rmse;
+        sw.dist[1][0] = q.rmse;
+        // The render closest to the main reference (octree rows are the baseline).
+        let closest = rows
+            .iter()
+            .filter(|r| r.scene == si && r.reference == RefKind::Main && !r.eight_bit)
+            .min_by(|x, y| x.errors.rmse.total_cmp(&y.errors.rmse))
+            .map(|r| (format!("{} {}", r.knob.name(), r.value), r.errors.rmse));
+        text.push_str(&precision_conclusion(
+            &sw,
+            q.rmse,
+            closest.as_ref().map(|(l, e)| (l.as_str(), *e)),
+            wire,
+        ));
+    }
 }
 
 pub(super) fn knob_intro(knob: Knob) -> String {
@@ -563,6 +659,7 @@ pub(super) fn command_line() -> String {
 }
 
 #[allow(clippy::too_many_arguments)]
+/// The Markdown report.
 pub(super) fn report(
     args: &AccuracyArgs,
     scenes: &[SceneRun],
@@ -574,6 +671,24 @@ pub(super) fn report(
     load_start: &str,
 ) -> String {
     let mut md = String::new();
+    intro(&mut md, args, skipped, cores, total, svg_name, load_start);
+    method(&mut md);
+    scenes_section(&mut md, scenes);
+    results_section(&mut md, scenes, rows);
+    front_and_knobs(&mut md, scenes, rows, svg_name);
+    md
+}
+
+/// The title and how the run was made: command, machine, image size, runs, skipped scenes.
+fn intro(
+    md: &mut String,
+    args: &AccuracyArgs,
+    skipped: &[String],
+    cores: usize,
+    total: Duration,
+    svg_name: &str,
+    load_start: &str,
+) {
     let runs = args.runs.max(1);
     let _ = writeln!(md, "# Accuracy and what it costs\n");
     let _ = writeln!(
@@ -605,6 +720,10 @@ pub(super) fn report(
     for s in skipped {
         let _ = writeln!(md, "- Skipped: {s}");
     }
+}
+
+/// The method: references, residuals, baseline, error measures.
+fn method(md: &mut String) {
     let _ = writeln!(md, "\n## Method\n");
     let _ = writeln!(
         md,
@@ -661,6 +780,10 @@ pub(super) fn report(
          prove them in front of the ray); there is no f64 tracer to compare with, so no figure \
          is given rather than an invented one."
     );
+}
+
+/// The scenes, their references with residuals, and the timing noise of each.
+fn scenes_section(md: &mut String, scenes: &[SceneRun]) {
     let _ = writeln!(md, "\n## Scenes\n");
     let _ = writeln!(
         md,
@@ -735,6 +858,10 @@ pub(super) fn report(
         }
     }
     let _ = writeln!(md);
+}
+
+/// The results table and the line results on the wire.
+fn results_section(md: &mut String, scenes: &[SceneRun], rows: &[Row]) {
     let _ = writeln!(md, "## Results\n");
     let _ = writeln!(
         md,
@@ -743,20 +870,8 @@ pub(super) fn report(
     let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
     for r in rows {
         let sc = &scenes[r.scene];
-        let _ = writeln!(
-            md,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-            sc.name,
-            r.knob.name(),
-            r.value,
-            fmt_secs(r.time),
-            fmt_ratio(r.ratio),
-            sig3(r.errors.rmse),
-            fmt_psnr(r.errors.psnr),
-            fmt_ssim(r.errors.ssim),
-            fmt_rays(sc.measured[r.measured].rays.total()),
-            r.reference.name()
-        );
+        let cells = row_cells(&sc.name, r, sc.measured[r.measured].rays.total());
+        let _ = writeln!(md, "| {} |", cells.join(" | "));
     }
     let _ = writeln!(
         md,
@@ -787,6 +902,10 @@ pub(super) fn report(
             serial_seconds(wb.image8, baud)
         );
     }
+}
+
+/// The plot, each scene's Pareto front, the paragraph per knob and the f64 note.
+fn front_and_knobs(md: &mut String, scenes: &[SceneRun], rows: &[Row], svg_name: &str) {
     let _ = writeln!(md, "\n## Error against time\n");
     let _ = writeln!(md, "![RMSE against median render time]({svg_name})\n");
     let _ = writeln!(
@@ -835,7 +954,6 @@ pub(super) fn report(
          inconclusive); an f64 reference would need a second renderer, so this report gives \
          no figure for it."
     );
-    md
 }
 
 #[cfg(test)]

@@ -1,6 +1,8 @@
 //! Number formatting for the report's tables and text.
 
-use super::*;
+use super::Row;
+use std::time::Duration;
+use strahl_core::scene::RenderSettings;
 
 /// `v` with three significant digits, without exponent.
 pub(super) fn sig3(v: f64) -> String {
@@ -93,26 +95,53 @@ pub(super) fn settings_summary(s: &RenderSettings) -> String {
     )
 }
 
+/// One result row on stdout, in aligned columns.
 pub(super) fn stdout_row(
     out: &mut impl std::io::Write,
     scene: &str,
     r: &Row,
     rays: u64,
 ) -> std::io::Result<()> {
+    let [scene, knob, value, time, ratio, rmse, psnr, ssim, rays, reference] =
+        row_cells(scene, r, rays);
     writeln!(
         out,
-        "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  {}",
-        scene,
-        r.knob.name(),
-        r.value,
+        "{scene:<28} {knob:<26} {value:>12} {time:>9} {ratio:>8} {rmse:>10} {psnr:>7} {ssim:>8} \
+         {rays:>8}  {reference}"
+    )
+}
+
+/// The cells of a result row, in table order: scene, knob, value, time, × baseline, RMSE, PSNR,
+/// SSIM, `rays` and what it is compared with.
+pub(super) fn row_cells(scene: &str, r: &Row, rays: u64) -> [String; 10] {
+    [
+        scene.to_string(),
+        r.knob.name().to_string(),
+        r.value.clone(),
         fmt_secs(r.time),
         fmt_ratio(r.ratio),
         sig3(r.errors.rmse),
         fmt_psnr(r.errors.psnr),
         fmt_ssim(r.errors.ssim),
         fmt_rays(rays),
-        r.reference.name()
-    )
+        r.reference.name().to_string(),
+    ]
+}
+
+/// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
+pub(super) fn percent(v: f32) -> String {
+    let p = format!("{:.2}", f64::from(v) * 100.0);
+    let p = p.trim_end_matches('0').trim_end_matches('.');
+    format!("{p} %")
+}
+
+/// Values joined as prose: `a`, `a and b`, `a, b and c`.
+pub(super) fn join_values(v: &[String]) -> String {
+    match v {
+        [] => String::new(),
+        [a] => a.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
 }
 
 #[cfg(test)]

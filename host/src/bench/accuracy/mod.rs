@@ -27,17 +27,15 @@
 //! Octree settings must not change a pixel: the command fails, naming the setting and the first
 //! pixel that differs, if one does.
 //!
-//! This file plans the sweep (knobs, references, the rows of a scene) and runs it; the parts
-//! around it: `metrics` (RMSE, PSNR, SSIM, the Pareto front), `wire` (line-result bytes at 16
-//! and 8 bits), `conclusions` (what the reference resolves, and the conclusion of each
-//! paragraph), `report` (the Markdown text), `plot` (the SVG) and `format` (numbers in
-//! text).
+//! This file holds the command line, the data of a sweep (knobs, configurations, rows,
+//! references, a scene's run) and the run over the scenes; the parts: `plan` (each knob's values
+//! from the baseline), `measure` (one scene: references, rounds of renders, errors), `metrics`
+//! (RMSE, PSNR, SSIM, the Pareto front), `wire` (line-result bytes at 16 and 8 bits),
+//! `conclusions` (what the reference resolves, and the conclusion of each paragraph), `report`
+//! (the Markdown text), `plot` (the SVG) and `format` (numbers in text).
 
-use crate::cluster::local::render_local;
-use crate::cluster::prepared::PreparedScene;
 use crate::formats::load::{load_scene, Overrides};
 use anyhow::{anyhow, bail, Context as _};
-use std::fmt::Write as _;
 use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
@@ -45,27 +43,27 @@ use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
-use strahl_core::scene::{
-    RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
-};
-use strahl_core::wire::error::ProtocolError;
-use strahl_core::wire::frame::FrameWriter;
-use strahl_core::wire::message::{encode_pixels, WorkerMessage};
-use strahl_core::wire::PIXEL_WIRE_BYTES;
+use strahl_core::scene::{RenderSettings, SceneDesc, MAX_IMAGE_SIDE, MAX_SAMPLES};
 
 mod conclusions;
 mod format;
+mod measure;
 mod metrics;
+mod plan;
 mod plot;
 mod report;
 mod wire;
 
-use conclusions::*;
-use format::*;
-pub use metrics::*;
-pub use plot::*;
-use report::*;
-pub use wire::*;
+pub use metrics::{pareto_front, psnr, rmse, ssim, through_8_bits, to_colors, Colors};
+pub use plot::{svg, PlotPanel, PlotPoint};
+pub use wire::{
+    line_result_frame, serial_seconds, wire_bytes, WireBytes, PIXEL_WIRE_BYTES_8,
+    SERIAL_BITS_PER_BYTE,
+};
+
+use measure::run_scene;
+use plan::Setting;
+use report::{load_average, report};
 
 /// The demo room's configuration file, relative to the checkout's root.
 pub const DEFAULT_ROOM: &str = "scenes/room/raytracer.cfg";
@@ -288,6 +286,9 @@ struct Errors {
 struct Row {
     scene: usize,
     knob: Knob,
+    /// The knob's value.
+    setting: Setting,
+    /// The value in the table.
     value: String,
     /// Short label in the plot.
     short: String,
@@ -381,252 +382,6 @@ impl SceneRun {
     }
 }
 
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v.get(v.len() / 2).copied().unwrap_or_default()
-}
-
-/// A fraction as a percentage with at most two decimals (`0.1` is `10 %`, `0.005` is `0.5 %`).
-fn percent(v: f32) -> String {
-    let p = format!("{:.2}", f64::from(v) * 100.0);
-    let p = p.trim_end_matches('0').trim_end_matches('.');
-    format!("{p} %")
-}
-
-/// The planned rows of one scene: knob, value, plot label, configuration, reference.
-fn plan(
-    baseline: &RenderSettings,
-    quick: bool,
-) -> Vec<(Knob, String, String, Config, RefKind, bool)> {
-    let octree = OctreeParams::default();
-    let cfg = |settings: RenderSettings| Config { settings, octree };
-    let mut rows = Vec::new();
-    let pick = |full: &[u32], q: &[u32]| -> Vec<u32> {
-        if quick {
-            q.to_vec()
-        } else {
-            full.to_vec()
-        }
-    };
-    for m in pick(&[1, 2, 3, 4, 5, 6, 7, 8], &[1, 2, 4]) {
-        let s = RenderSettings {
-            samples: m,
-            aa_threshold: None,
-            ..*baseline
-        };
-        rows.push((
-            Knob::Multisample,
-            format!("{m} ({} spp)", m * m),
-            format!("m{m}"),
-            cfg(s),
-            RefKind::Main,
-            false,
-        ));
-    }
-    let thresholds: &[f32] = if quick {
-        &[0.1]
-    } else {
-        &[0.3, 0.1, 0.03, 0.01]
-    };
-    for &t in thresholds {
-        let s = RenderSettings {
-            samples: 4,
-            aa_threshold: Some(t),
-            ..*baseline
-        };
-        rows.push((
-            Knob::Adaptive,
-            format!("{t}"),
-            format!("t{t}"),
-            cfg(s),
-            RefKind::Main,
-            false,
-        ));
-    }
-    let reflect_ref = if baseline.reflections {
-        RefKind::Main
-    } else {
-        RefKind::Reflections
-    };
-    let reflective = RenderSettings {
-        reflections: true,
-        ..*baseline
-    };
-    // The scene's own cut-off and depth cap join the sweeps.
-    let mut cutoffs: Vec<f32> = if quick {
-        vec![0.1, 0.0]
-    } else {
-        vec![0.1, 0.05, 0.01, 0.0]
-    };
-    if !cutoffs.contains(&baseline.min_reflection_weight) {
-        cutoffs.push(baseline.min_reflection_weight);
-        cutoffs.sort_by(|a, b| b.total_cmp(a));
-    }
-    for c in cutoffs {
-        let s = RenderSettings {
-            min_reflection_weight: c,
-            ..reflective
-        };
-        rows.push((
-            Knob::Cutoff,
-            percent(c),
-            format!("cut {}", percent(c)),
-            cfg(s),
-            reflect_ref,
-            false,
-        ));
-    }
-    let mut depths = pick(&[1, 2, 4, 8, 16], &[1, 16]);
-    if !depths.contains(&baseline.max_depth) {
-        depths.push(baseline.max_depth);
-        depths.sort_unstable();
-    }
-    for d in depths {
-        let s = RenderSettings {
-            max_depth: d,
-            ..reflective
-        };
-        rows.push((
-            Knob::Depth,
-            d.to_string(),
-            format!("d{d}"),
-            cfg(s),
-            reflect_ref,
-            false,
-        ));
-    }
-    let levels: Vec<u32> = match (baseline.ambient_occlusion, quick) {
-        (0, false) => vec![0, 1, 2, 4],
-        (0, true) => vec![0, 1],
-        (l, false) => (0..=MAX_AMBIENT_OCCLUSION).chain([l]).collect(),
-        (l, true) => vec![0, l, MAX_AMBIENT_OCCLUSION],
-    };
-    let mut seen = Vec::new();
-    for a in levels {
-        if seen.contains(&a) {
-            continue;
-        }
-        seen.push(a);
-        let s = RenderSettings {
-            ambient_occlusion: a,
-            ..*baseline
-        };
-        rows.push((
-            Knob::Occlusion,
-            match a {
-                0 => "0 (off)".to_string(),
-                1 => "1 (1 ray)".to_string(),
-                _ => format!("{a} ({} rays)", a * a),
-            },
-            format!("AO {a}"),
-            cfg(s),
-            RefKind::Occlusion9,
-            false,
-        ));
-    }
-    for d in pick(&[4, 8, 12, 16, 20], &[4, 16]) {
-        rows.push((
-            Knob::OctreeDepth,
-            d.to_string(),
-            format!("depth {d}"),
-            Config {
-                settings: *baseline,
-                octree: OctreeParams {
-                    max_depth: d,
-                    ..octree
-                },
-            },
-            RefKind::Baseline,
-            false,
-        ));
-    }
-    for l in pick(&[1, 2, 4, 8, 16, 32], &[1, 8]) {
-        rows.push((
-            Knob::OctreeLeaf,
-            l.to_string(),
-            format!("leaf {l}"),
-            Config {
-                settings: *baseline,
-                octree: OctreeParams {
-                    max_leaf_triangles: l,
-                    ..octree
-                },
-            },
-            RefKind::Baseline,
-            false,
-        ));
-    }
-    for bits in [16, 8] {
-        rows.push((
-            Knob::Precision,
-            format!("{bits} bit"),
-            format!("{bits} bit"),
-            cfg(*baseline),
-            RefKind::Main,
-            bits == 8,
-        ));
-    }
-    rows
-}
-
-/// Renders `desc` with `config` `runs` times on `workers` in-process workers; returns the median
-/// time, the pixels and the rays. Every run must give the same pixels. Scene preparation is not
-/// timed.
-fn render_timed(
-    name: &str,
-    desc: &SceneDesc,
-    config: &Config,
-    workers: usize,
-    runs: usize,
-) -> anyhow::Result<(Duration, Vec<Pixel>, RayCounts)> {
-    let mut d = desc.clone();
-    d.settings = config.settings;
-    let prepared = PreparedScene::new(&d, &config.octree).map_err(|e| anyhow!("{name}: {e}"))?;
-    let mut times = Vec::with_capacity(runs);
-    let mut first: Option<(Vec<Pixel>, RayCounts)> = None;
-    for _ in 0..runs.max(1) {
-        // Short renders repeat until the run lasts MIN_RUN: the time is per render.
-        let t = Instant::now();
-        let mut count = 0u32;
-        let img = loop {
-            let img = render_local(&prepared, workers, &|_, _| {})
-                .with_context(|| format!("{name}: render failed"))?;
-            count += 1;
-            if t.elapsed() >= MIN_RUN {
-                break img;
-            }
-        };
-        times.push(t.elapsed() / count);
-        match &first {
-            None => first = Some((img.pixels, img.rays)),
-            Some((p, _)) if *p != img.pixels => {
-                bail!("{name}: two renders of the same settings differ (a bug): {config:?}")
-            }
-            Some(_) => {}
-        }
-    }
-    let (pixels, rays) = first.ok_or_else(|| anyhow!("{name}: no render"))?;
-    Ok((median(times), pixels, rays))
-}
-
-/// Where two images first differ: `(x, y, a, b)`.
-fn first_difference(a: &[Pixel], b: &[Pixel], width: u32) -> Option<(u32, u32, Pixel, Pixel)> {
-    let w = width.max(1) as usize;
-    a.iter()
-        .zip(b)
-        .position(|(p, q)| p != q)
-        .map(|i| ((i % w) as u32, (i / w) as u32, a[i], b[i]))
-}
-
-fn errors(a: &[[f32; 3]], b: &[[f32; 3]], width: u32, height: u32) -> Errors {
-    let e = rmse(a, b);
-    Errors {
-        rmse: e,
-        psnr: psnr(e),
-        ssim: ssim(a, b, width as usize, height as usize),
-    }
-}
-
 // ---------------------------------------------------------------------------------------------
 // Running it
 // ---------------------------------------------------------------------------------------------
@@ -675,266 +430,6 @@ fn load(path: &Path, size: ImageSize) -> anyhow::Result<SceneDesc> {
     Ok(desc)
 }
 
-/// Measures one scene, printing its rows on stdout as they come.
-fn run_scene(
-    name: &str,
-    desc: &SceneDesc,
-    args: &AccuracyArgs,
-    cores: usize,
-    scene_index: usize,
-    rows: &mut Vec<Row>,
-) -> anyhow::Result<SceneRun> {
-    let runs = args.runs.max(1) as usize;
-    let (w, h) = (args.size.width, args.size.height);
-    let mut out = std::io::stdout().lock();
-    let baseline = RenderSettings {
-        samples: 1,
-        ..desc.settings
-    };
-    let main_ref = RenderSettings {
-        samples: REFERENCE_SAMPLES,
-        aa_threshold: None,
-        min_reflection_weight: 0.0,
-        max_depth: REFERENCE_DEPTH,
-        ..baseline
-    };
-    let mut ref_settings = vec![(RefKind::Main, main_ref)];
-    let reflections_forced = !baseline.reflections;
-    if reflections_forced {
-        ref_settings.push((
-            RefKind::Reflections,
-            RenderSettings {
-                reflections: true,
-                ..main_ref
-            },
-        ));
-    }
-    ref_settings.push((
-        RefKind::Occlusion9,
-        RenderSettings {
-            ambient_occlusion: MAX_AMBIENT_OCCLUSION,
-            samples: if baseline.ambient_occlusion == MAX_AMBIENT_OCCLUSION {
-                REFERENCE_SAMPLES
-            } else {
-                OCCLUSION_REFERENCE_SAMPLES
-            },
-            ..main_ref
-        },
-    ));
-    writeln!(
-        out,
-        "\n{name}: {w}x{h}, {} triangles, {} solid objects; baseline: {}",
-        desc.triangles.len(),
-        desc.objects.len(),
-        settings_summary(&baseline)
-    )?;
-    let mut references: Vec<Reference> = Vec::new();
-    let mut ref_images: Vec<(RefKind, Colors)> = Vec::new();
-    for (i, (kind, s)) in ref_settings.iter().enumerate() {
-        // The AO-9 reference is the main one when the scene already uses level 9.
-        if let Some(j) = ref_settings[..i]
-            .iter()
-            .position(|(_, earlier)| earlier == s)
-        {
-            let colors = ref_images[j].1.clone();
-            ref_images.push((*kind, colors));
-            if let Some(r) = references.iter_mut().find(|r| r.settings == *s) {
-                r.kinds.push(*kind);
-            }
-            continue;
-        }
-        let config = Config {
-            settings: *s,
-            octree: OctreeParams::default(),
-        };
-        let (t, px, rays) = render_timed(name, desc, &config, cores, 1)?;
-        let colors = to_colors(&px);
-        // The residual: the same settings at half the samples per side.
-        let probe_samples = residual_probe_samples(s.samples);
-        let probe = Config {
-            settings: RenderSettings {
-                samples: probe_samples,
-                ..*s
-            },
-            octree: OctreeParams::default(),
-        };
-        let (probe_time, probe_px, _) = render_timed(name, desc, &probe, cores, 1)?;
-        let residual = errors(&to_colors(&probe_px), &colors, w, h);
-        writeln!(
-            out,
-            "{}: {} s, {} rays; residual (RMSE of multisample {probe_samples} against it, {} s): {}",
-            kind.name(),
-            fmt_secs(t),
-            fmt_rays(rays.total()),
-            fmt_secs(probe_time),
-            sig3(residual.rmse)
-        )?;
-        references.push(Reference {
-            kinds: vec![*kind],
-            settings: *s,
-            time: t,
-            rays,
-            probe_samples,
-            probe_time,
-            residual,
-        });
-        ref_images.push((*kind, colors));
-    }
-    let header = |out: &mut std::io::StdoutLock<'_>, time: &str| {
-        writeln!(
-            out,
-            "{:<28} {:<26} {:>12} {:>9} {:>8} {:>10} {:>7} {:>8} {:>8}  compared with",
-            "scene", "knob", "value", time, "×base", "RMSE", "PSNR", "SSIM", "rays"
-        )
-    };
-    if runs > 1 {
-        writeln!(out, "round 1 of {runs} (times of this round only):")?;
-    }
-    header(&mut out, if runs > 1 { "1st s" } else { "s" })?;
-
-    let mut measured: Vec<Measured> = Vec::new();
-    let measure = |measured: &mut Vec<Measured>, config: &Config| -> anyhow::Result<usize> {
-        if let Some(i) = measured.iter().position(|m| m.config == *config) {
-            return Ok(i);
-        }
-        let (time, pixels, rays) = render_timed(name, desc, config, cores, 1)?;
-        let image = measured
-            .iter()
-            .position(|m| m.pixels == pixels)
-            .unwrap_or(measured.len());
-        measured.push(Measured {
-            config: *config,
-            times: vec![time],
-            time,
-            colors: to_colors(&pixels),
-            pixels,
-            rays,
-            image,
-        });
-        Ok(measured.len() - 1)
-    };
-    let base_config = Config {
-        settings: baseline,
-        octree: OctreeParams::default(),
-    };
-    let base = measure(&mut measured, &base_config)?;
-    let plan = plan(&baseline, args.quick);
-    let mut mine = Vec::new();
-    for (knob, value, short, config, reference, eight_bit) in plan {
-        let i = measure(&mut measured, &config)?;
-        let m = &measured[i];
-        let b = &measured[base];
-        let errs = if reference == RefKind::Baseline {
-            if m.pixels != b.pixels {
-                let n = m
-                    .pixels
-                    .iter()
-                    .zip(&b.pixels)
-                    .filter(|(p, q)| p != q)
-                    .count();
-                let detail = first_difference(&m.pixels, &b.pixels, w).map_or_else(
-                    String::new,
-                    |(x, y, p, q)| {
-                        format!(
-                            "; first at pixel ({x}, {y}): {:?} instead of {:?}",
-                            p.0, q.0
-                        )
-                    },
-                );
-                bail!(
-                    "{name}: {} {value} (octree depth {}, leaf {}) changed {n} of {} pixels \
-                     against the default octree (depth {}, leaf {}){detail}. Octree settings \
-                     must never change the image: this is a bug.",
-                    knob.name(),
-                    config.octree.max_depth,
-                    config.octree.max_leaf_triangles,
-                    m.pixels.len(),
-                    base_config.octree.max_depth,
-                    base_config.octree.max_leaf_triangles,
-                );
-            }
-            errors(&m.colors, &b.colors, w, h)
-        } else {
-            let reference = ref_images
-                .iter()
-                .find(|(k, _)| *k == reference)
-                .map(|(_, c)| c)
-                .ok_or_else(|| anyhow!("internal error: no {} image", reference.name()))?;
-            if eight_bit {
-                errors(&to_colors(&through_8_bits(&m.pixels)), reference, w, h)
-            } else {
-                errors(&m.colors, reference, w, h)
-            }
-        };
-        let row = Row {
-            scene: scene_index,
-            knob,
-            value,
-            short,
-            measured: i,
-            eight_bit,
-            reference,
-            time: m.time,
-            ratio: m.time.as_secs_f64() / b.time.as_secs_f64().max(1e-12),
-            errors: errs,
-        };
-        stdout_row(&mut out, name, &row, m.rays.total())?;
-        mine.push(row);
-    }
-    // The other runs in rounds over every setting, so a busy spell of the machine spreads over
-    // all settings instead of spoiling one.
-    // Each round starts at another setting, so no setting always follows the same one.
-    let n = measured.len();
-    for round in 2..=runs {
-        writeln!(out, "round {round} of {runs}")?;
-        let offset = (round - 1) * n / runs;
-        for k in 0..n {
-            let m = &mut measured[(k + offset) % n];
-            let (t, pixels, _) = render_timed(name, desc, &m.config, cores, 1)?;
-            if pixels != m.pixels {
-                bail!(
-                    "{name}: two renders of the same settings differ (a bug): {:?}",
-                    m.config
-                );
-            }
-            m.times.push(t);
-        }
-    }
-    for m in &mut measured {
-        m.time = median(m.times.clone());
-    }
-    let base_time = measured[base].time.as_secs_f64().max(1e-12);
-    for r in &mut mine {
-        r.time = measured[r.measured].time;
-        r.ratio = r.time.as_secs_f64() / base_time;
-    }
-    if runs > 1 {
-        writeln!(out, "median of {runs} runs:")?;
-        header(&mut out, "median s")?;
-        for r in &mine {
-            stdout_row(&mut out, name, r, measured[r.measured].rays.total())?;
-        }
-    }
-    let b = &measured[base];
-    let quantization = errors(&to_colors(&through_8_bits(&b.pixels)), &b.colors, w, h);
-    let wire = wire_bytes(&b.pixels, w, b.rays)
-        .map_err(|e| anyhow!("{name}: cannot encode line results: {e}"))?;
-    let run = SceneRun {
-        name: name.to_string(),
-        triangles: desc.triangles.len(),
-        solids: desc.objects.len(),
-        baseline,
-        baseline_time: b.time,
-        references,
-        reflections_forced,
-        measured,
-        quantization,
-        wire,
-    };
-    rows.extend(mine);
-    Ok(run)
-}
-
 /// Runs `strahl bench accuracy`: prints the table on stdout as it goes and writes the report and
 /// its plot.
 ///
@@ -951,23 +446,9 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .ok_or_else(|| anyhow!("{}: not a file name", args.out.display()))?;
-    // Fail before the long part if the report cannot be written.
-    let folder = match args.out.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !folder.is_dir() {
-        bail!(
-            "{}: cannot write the report: no such folder {}",
-            args.out.display(),
-            folder.display()
-        );
-    }
+    check_report_folder(&args.out)?;
 
     let list = scene_list(args)?;
-    let mut skipped = Vec::new();
-    let mut scenes = Vec::new();
-    let mut rows = Vec::new();
     println!(
         "strahl bench accuracy: {}x{}, {} runs per setting, {cores} workers{}",
         args.size.width,
@@ -975,6 +456,73 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         args.runs.max(1),
         if args.quick { ", quick sweep" } else { "" }
     );
+    let Sweeps {
+        scenes,
+        rows,
+        skipped,
+    } = run_scenes(list, args, cores)?;
+    let total = start.elapsed();
+
+    let md = report(
+        args,
+        &scenes,
+        &skipped,
+        &rows,
+        cores,
+        total,
+        &svg_name,
+        &load_start,
+    );
+    let picture = svg(&plot_panels(&scenes, &rows));
+    for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
+        crate::formats::fs::write_atomically(path, |w| {
+            w.write_all(text.as_bytes())
+                .with_context(|| format!("{}: cannot write", path.display()))
+        })?;
+    }
+    println!(
+        "\nwrote {} and {} ({:.1} s)",
+        args.out.display(),
+        svg_path.display(),
+        total.as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Fails before the long part if the report `out` cannot be written: its folder must exist.
+fn check_report_folder(out: &Path) -> anyhow::Result<()> {
+    let folder = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    if !folder.is_dir() {
+        bail!(
+            "{}: cannot write the report: no such folder {}",
+            out.display(),
+            folder.display()
+        );
+    }
+    Ok(())
+}
+
+/// Every scene measured, with the rows of all of them.
+struct Sweeps {
+    scenes: Vec<SceneRun>,
+    rows: Vec<Row>,
+    /// The default scenes that did not load, with why.
+    skipped: Vec<String>,
+}
+
+/// Loads and measures the scenes of `list` ([`scene_list`]): all the required ones and the first
+/// two optional ones that load.
+fn run_scenes(
+    list: Vec<(PathBuf, bool)>,
+    args: &AccuracyArgs,
+    cores: usize,
+) -> anyhow::Result<Sweeps> {
+    let mut skipped = Vec::new();
+    let mut scenes = Vec::new();
+    let mut rows = Vec::new();
     let mut optional = 0;
     for (path, required) in list {
         if !required && optional == 2 {
@@ -994,13 +542,20 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
         let index = scenes.len();
         scenes.push(run_scene(&name, &desc, args, cores, index, &mut rows)?);
     }
-    let total = start.elapsed();
+    Ok(Sweeps {
+        scenes,
+        rows,
+        skipped,
+    })
+}
 
-    let panels: Vec<PlotPanel> = scenes
+/// The plot's panels: one per scene, one point per render and reference (the baseline appears
+/// under several knobs), octree rows left out.
+fn plot_panels(scenes: &[SceneRun], rows: &[Row]) -> Vec<PlotPanel> {
+    scenes
         .iter()
         .enumerate()
         .map(|(si, sc)| {
-            // One point per render and reference: the baseline appears under several knobs.
             let mut seen: Vec<(usize, bool, RefKind)> = Vec::new();
             let mut points = Vec::new();
             for r in rows.iter().filter(|r| {
@@ -1024,31 +579,7 @@ pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
                 points,
             }
         })
-        .collect();
-    let md = report(
-        args,
-        &scenes,
-        &skipped,
-        &rows,
-        cores,
-        total,
-        &svg_name,
-        &load_start,
-    );
-    let picture = svg(&panels);
-    for (path, text) in [(&args.out, &md), (&svg_path, &picture)] {
-        crate::formats::fs::write_atomically(path, |w| {
-            w.write_all(text.as_bytes())
-                .with_context(|| format!("{}: cannot write", path.display()))
-        })?;
-    }
-    println!(
-        "\nwrote {} and {} ({:.1} s)",
-        args.out.display(),
-        svg_path.display(),
-        total.as_secs_f64()
-    );
-    Ok(())
+        .collect()
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
 //! Error metrics of an image against a reference: RMSE, PSNR, SSIM, the 8-bit round trip,
 //! and the Pareto front of (time, error) points.
 
-use super::*;
+use strahl_core::render::pixel::Pixel;
 
 /// An image as linear colours in `[0, 1]`, row-major.
 pub type Colors = Vec<[f32; 3]>;
@@ -86,7 +86,9 @@ pub fn ssim(a: &[[f32; 3]], b: &[[f32; 3]], width: usize, height: usize) -> f64 
         y.iter().map(|v| v * v).collect(),
         x.iter().zip(&y).map(|(p, q)| p * q).collect(),
     ];
-    // Separable filtering over the valid region: rows first, then columns.
+    // Separable filtering over the valid region: rows first, then columns. The two passes look
+    // alike but step along different axes (stride 1, then stride `ow`); written out, each reads
+    // as the formula it is.
     let (ow, oh) = (width + 1 - size, height + 1 - size);
     let filter = |plane: &[f64]| -> Vec<f64> {
         let mut rows = vec![0.0; ow * height];

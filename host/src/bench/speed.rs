@@ -5,8 +5,8 @@
 //! only), and a full render (Phong, shadows, reflections) on one core for comparison. Each figure
 //! is the median of several runs; ratios are against figures from the same run.
 
+use super::stats::median;
 use crate::generate;
-use std::io::Write as _;
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::{Octree, OctreeParams};
 use strahl_core::render::pixel::Pixel;
@@ -54,11 +54,6 @@ pub struct BenchReport {
     pub shaded_time: Duration,
 }
 
-fn median(mut v: Vec<Duration>) -> Duration {
-    v.sort();
-    v[v.len() / 2]
-}
-
 /// Runs the benchmark.
 ///
 /// # Errors
@@ -79,17 +74,18 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error
     let runs = opts.runs.max(1);
 
     let mut builds = Vec::with_capacity(runs);
-    let mut octree = None;
-    for _ in 0..runs {
+    let mut build = || {
         let start = Instant::now();
         let tree = Octree::build(&tris, &opts.octree);
         builds.push(start.elapsed());
-        octree = Some(tree);
+        tree
+    };
+    // At least one build, so there are always statistics.
+    let mut octree = build();
+    for _ in 1..runs {
+        octree = build();
     }
-    let stats = *octree
-        .as_ref()
-        .map(Octree::stats)
-        .unwrap_or(&Default::default());
+    let stats = *octree.stats();
 
     let scene = Scene::build(&desc, &opts.octree)?;
     let (w, h) = (opts.size, opts.size);
@@ -176,68 +172,4 @@ impl std::fmt::Display for BenchReport {
             self.shaded_rays_per_s / 1e6
         )
     }
-}
-
-/// Arguments of `strahl bench`.
-#[derive(Debug, clap::Args)]
-#[command(args_conflicts_with_subcommands = true)]
-pub struct BenchArgs {
-    /// Another benchmark instead of the core figures.
-    #[command(subcommand)]
-    pub command: Option<BenchCommand>,
-    /// Least number of triangles of the generated scene.
-    #[arg(long, value_name = "N", default_value_t = 100_000,
-          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
-    pub triangles: u32,
-    /// Side of the square image rendered for the ray figures.
-    #[arg(long, value_name = "PIXELS", default_value_t = 512,
-          value_parser = clap::value_parser!(u32).range(16..=8192))]
-    pub size: u32,
-    /// Runs per figure (the median is reported).
-    #[arg(long, value_name = "N", default_value_t = 5,
-          value_parser = clap::value_parser!(u32).range(1..=100))]
-    pub runs: u32,
-    /// Octree depth limit.
-    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_depth,
-          value_parser = clap::value_parser!(u32).range(0..=20))]
-    pub octree_depth: u32,
-    /// Octree leaf size: cells with at most this many triangles are not split.
-    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_leaf_triangles,
-          value_parser = clap::value_parser!(u32).range(1..=1024))]
-    pub octree_leaf: u32,
-}
-
-/// The benchmarks besides the core figures.
-#[derive(Debug, clap::Subcommand)]
-pub enum BenchCommand {
-    /// Speedup over 1..N workers: in-process and TCP worker processes measured on this
-    /// machine, a discrete-event model beyond it (the seed's 1-to-12-machines comparison).
-    Scaling(crate::bench_scaling::ScalingArgs),
-    /// What accuracy costs in time: each quality knob swept alone against a converged
-    /// reference (RMSE, PSNR, SSIM, median time), written to docs/accuracy.md with a plot.
-    Accuracy(crate::bench_accuracy::AccuracyArgs),
-}
-
-/// Runs `strahl bench` and prints its report on stdout.
-///
-/// # Errors
-/// If the generated scene cannot be built, or the chosen benchmark fails.
-pub fn run_command(args: &BenchArgs) -> anyhow::Result<()> {
-    match &args.command {
-        Some(BenchCommand::Scaling(a)) => return crate::bench_scaling::run(a),
-        Some(BenchCommand::Accuracy(a)) => return crate::bench_accuracy::run(a),
-        None => {}
-    }
-    let opts = BenchOptions {
-        triangles: args.triangles,
-        size: args.size,
-        runs: args.runs as usize,
-        octree: OctreeParams {
-            max_depth: args.octree_depth,
-            max_leaf_triangles: args.octree_leaf,
-        },
-    };
-    let report = run(&opts).map_err(|e| anyhow::anyhow!("generated benchmark scene: {e}"))?;
-    writeln!(std::io::stdout().lock(), "{report}")?;
-    Ok(())
 }

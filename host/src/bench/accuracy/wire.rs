@@ -1,7 +1,12 @@
 //! Bytes on the wire: the framed `LineResult`s of an image with 16-bit pixels (what the
 //! protocol carries) against 8-bit ones (what an 8-bit wire would carry), and their serial time.
 
-use super::*;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::wire::error::ProtocolError;
+use strahl_core::wire::frame::FrameWriter;
+use strahl_core::wire::message::{encode_pixels, WorkerMessage};
+use strahl_core::wire::PIXEL_WIRE_BYTES;
 
 /// Bytes per pixel of an 8-bit wire: one byte per channel (the protocol's pixels are
 /// [`PIXEL_WIRE_BYTES`], three little-endian `u16`).
