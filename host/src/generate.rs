@@ -184,18 +184,6 @@ impl MeshBuilder {
     }
 }
 
-fn shader(ambient: Vec3, diffuse: Vec3, specular: Vec3, shininess: f32, reflection: f32) -> Shader {
-    Shader {
-        transparency: 0.0,
-        ior: 1.0,
-        ambient,
-        diffuse,
-        specular,
-        shininess,
-        reflection,
-    }
-}
-
 /// The demo room for the seed's example camera (0, −100, 25), tilt −15°, zoom 1.5: a floor and
 /// four walls, a smooth sphere, a smooth torus, a mirror on the back wall and two lights, one
 /// of which casts no shadow.
@@ -279,42 +267,42 @@ fn room_geometry() -> MeshBuilder {
 /// The room's shaders, in the order of [`room_geometry`]'s shader numbers.
 fn room_shaders() -> Vec<Shader> {
     vec![
-        shader(
+        Shader::phong(
             Vec3::splat(0.06),
             Vec3::new(0.55, 0.52, 0.48),
             Vec3::splat(0.05),
             8.0,
             0.0,
         ),
-        shader(
+        Shader::phong(
             Vec3::splat(0.05),
             Vec3::new(0.35, 0.45, 0.6),
             Vec3::ZERO,
             1.0,
             0.0,
         ),
-        shader(
+        Shader::phong(
             Vec3::splat(0.05),
             Vec3::new(0.6, 0.35, 0.3),
             Vec3::ZERO,
             1.0,
             0.0,
         ),
-        shader(
+        Shader::phong(
             Vec3::new(0.04, 0.01, 0.01),
             Vec3::new(0.75, 0.12, 0.1),
             Vec3::splat(0.6),
             40.0,
             0.15,
         ),
-        shader(
+        Shader::phong(
             Vec3::new(0.01, 0.03, 0.01),
             Vec3::new(0.2, 0.6, 0.25),
             Vec3::splat(0.5),
             25.0,
             0.0,
         ),
-        shader(
+        Shader::phong(
             Vec3::splat(0.02),
             Vec3::splat(0.05),
             Vec3::splat(0.3),
@@ -416,21 +404,21 @@ fn large_terrain(m: &mut MeshBuilder, min_triangles: u32) {
 /// The large scene's shaders: the terrain, then the two sphere colours.
 fn large_shaders() -> Vec<Shader> {
     vec![
-        shader(
+        Shader::phong(
             Vec3::splat(0.05),
             Vec3::new(0.45, 0.5, 0.35),
             Vec3::splat(0.1),
             10.0,
             0.0,
         ),
-        shader(
+        Shader::phong(
             Vec3::splat(0.04),
             Vec3::new(0.7, 0.3, 0.2),
             Vec3::splat(0.6),
             40.0,
             0.3,
         ),
-        shader(
+        Shader::phong(
             Vec3::splat(0.04),
             Vec3::new(0.2, 0.3, 0.7),
             Vec3::splat(0.6),

@@ -8,9 +8,9 @@
 //! |---|---|---|
 //! | formats | [`formats`] (`host/formats`): `lines config datafile nff obj mesh fart/ hosts load convert fs error` | every file read or written in Strahl's scene formats, each reader beside its writer; atomic file writes |
 //! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene, test meshes) |
-//! | cluster | [`cluster`] (master, scheduler, links, local and simulated workers), [`executor`] (which workers a render uses, and starting them) | rendering through workers |
+//! | cluster | [`cluster`]: master, scheduler, links, local and simulated workers, and `executor` (which workers a render uses, and starting them) | rendering through workers |
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
-//! | benchmarks | [`bench`](mod@bench), [`bench_scaling`], [`bench_accuracy`] | `strahl bench` and its studies |
+//! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `stats` | `strahl bench` and its studies |
 //! | base | [`util`]: `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
 //!
 //! Dependencies point one way, from the interface down:
@@ -26,27 +26,26 @@
 //!   everything, and its dependencies hold no clap, indicatif or image.
 //! - `util` uses no group; `generate` uses only `formats` (the data file and configuration file
 //!   writers).
-//! - `cluster` and `executor` use `formats` (the hosts file) and `util`; they take plain structs
+//! - `cluster` uses `formats` (the hosts file) and `util`; it takes plain structs
 //!   (`WorkerSources`, `MasterOptions`), never clap types.
 //! - the benchmarks use `cluster`, `formats`, `generate` and `util`; `output` uses `formats::fs`.
 //! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`,
-//!   except the benchmarks' own (still in [`bench`](mod@bench) and [`bench_accuracy`], owned
-//!   elsewhere, and reached only through [`cli::bench`]).
+//!   except the benchmarks' own, which stay beside the studies they configure in
+//!   [`bench`](mod@bench) and are reached only through [`cli::bench`].
 //!
 //! Why the formats are a crate and the rest are folders: the parsers are the part with users of
 //! their own (a tool that reads `.fart` or `raytracer.cfg` files), who should not pull in a
 //! command line, a progress bar or image codecs; a crate boundary makes that, and the direction
 //! of dependencies, a compiler error rather than a convention. The other groups share the
 //! binary's dependencies anyway, so separate crates would buy them only build boundaries; inside
-//! this crate, `host/tests/layering.rs` fails when `util`, `generate` or the cluster names a group
-//! above it (or the cluster names clap). Making the cluster a crate is a later step for its
-//! owner. `executor` belongs to the cluster group but stays at the crate root while the
-//! cluster's owner reworks it.
+//! this crate, `tests/tests/layers.rs` fails when a group imports from one above it or two
+//! modules import each other round a loop, and when the cluster names clap. The cluster could
+//! become a crate too; today only the binary and the benchmarks use it, so the boundary would
+//! buy nothing the layer check does not.
 
 pub mod bench;
 pub mod cli;
 pub mod cluster;
-pub mod executor;
 pub use strahl_formats as formats;
 pub mod generate;
 pub mod output;

@@ -1,7 +1,8 @@
 //! The crates' layer maps hold: no module imports from a layer above its own, and no two modules
 //! import each other, directly or round a longer loop.
 //!
-//! The maps are the ones the crate docs state (`core/src/lib.rs`, `host/src/lib.rs`). The check
+//! The maps are the ones the crate docs state (`core/src/lib.rs`, `host/src/lib.rs`,
+//! `host/formats/src/lib.rs`). The check
 //! reads every source file, drops comments, and resolves each `crate::a::b` and `super::b` path to
 //! the deepest module file it names; `mod` declarations are not imports, `pub use` re-exports are.
 
@@ -25,6 +26,28 @@ const CORE: LayerMap = LayerMap {
         &["render"],
         &["wire"],
         &["worker"],
+    ],
+};
+
+const HOST: LayerMap = LayerMap {
+    src: "host/src",
+    layers: &[
+        &["util"],
+        &["generate", "output"],
+        &["cluster"],
+        &["bench"],
+        &["cli"],
+    ],
+};
+
+const FORMATS: LayerMap = LayerMap {
+    src: "host/formats/src",
+    layers: &[
+        &["error", "fs"],
+        &["lines"],
+        &["config", "datafile", "obj", "hosts"],
+        &["mesh", "nff", "fart"],
+        &["convert", "load"],
     ],
 };
 
@@ -245,6 +268,50 @@ fn core_modules_import_only_from_their_own_layer_or_below() {
 fn core_modules_import_each_other_in_no_loop() {
     let cycle = find_cycle(&graph(&CORE));
     assert_eq!(cycle, None, "an import loop in core");
+}
+
+#[test]
+fn host_modules_import_only_from_their_own_layer_or_below() {
+    let wrong = check_layers(&HOST);
+    assert!(
+        wrong.is_empty(),
+        "layer map of host broken:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn host_modules_import_each_other_in_no_loop() {
+    let cycle = find_cycle(&graph(&HOST));
+    assert_eq!(cycle, None, "an import loop in host");
+}
+
+#[test]
+fn format_modules_import_only_from_their_own_layer_or_below() {
+    let wrong = check_layers(&FORMATS);
+    assert!(
+        wrong.is_empty(),
+        "layer map of the formats broken:\n{}",
+        wrong.join("\n")
+    );
+}
+
+#[test]
+fn format_modules_import_each_other_in_no_loop() {
+    let cycle = find_cycle(&graph(&FORMATS));
+    assert_eq!(cycle, None, "an import loop in the formats");
+}
+
+#[test]
+fn the_cluster_takes_no_command_line_types() {
+    let mut files = Vec::new();
+    modules(&workspace().join("host/src/cluster"), &[], &mut files);
+    assert!(files.len() > 5, "the cluster's files are found");
+    for (_, path) in files {
+        let text = std::fs::read_to_string(&path).expect("source readable");
+        let code = code_only(&text);
+        assert!(!code.contains("clap::"), "{} uses clap", path.display());
+    }
 }
 
 #[test]

@@ -5,6 +5,7 @@ use super::camera::Camera;
 use super::settings::RenderSettings;
 use crate::geom::solid::SolidNode;
 use alloc::vec::Vec;
+use core::ops::RangeInclusive;
 use glam::Vec3;
 /// The largest image side, in pixels, that a scene accepts.
 pub const MAX_IMAGE_SIDE: u32 = 32768;
@@ -27,6 +28,16 @@ pub struct Shader {
     pub transparency: f32,
     /// Index of refraction of the material behind the surface (1 for the seed's shaders).
     pub ior: f32,
+}
+
+/// The range of a shader's reflection and of its transparency: shares of the colour.
+pub const SHARE: RangeInclusive<f32> = 0.0..=1.0;
+
+/// Whether a reflection and a transparency are shares that fit together: each in [`SHARE`], and
+/// at most 1 together (the rest is the local colour). Readers check it where they can name
+/// the line; [`SceneDesc::validate`] checks it for every scene.
+pub fn shares_fit(reflection: f32, transparency: f32) -> bool {
+    SHARE.contains(&reflection) && SHARE.contains(&transparency) && reflection + transparency <= 1.0
 }
 
 impl Shader {

@@ -3,7 +3,7 @@
 
 use super::camera::Camera;
 use super::error::SceneError;
-use super::model::{SceneDesc, MAX_IMAGE_SIDE};
+use super::model::{shares_fit, SceneDesc, MAX_IMAGE_SIDE};
 use crate::geom::solid::{SolidNode, MAX_CSG_DEPTH};
 use alloc::vec::Vec;
 use glam::Vec3;
@@ -87,12 +87,7 @@ impl SceneDesc {
     /// scene file to the pixel.
     fn validate_shaders(&self) -> Result<(), SceneError> {
         for (i, sh) in self.shaders.iter().enumerate() {
-            let unit = |v: f32| (0.0..=1.0).contains(&v);
-            if !unit(sh.reflection)
-                || !unit(sh.transparency)
-                || sh.reflection + sh.transparency > 1.0
-                || sh.ior <= 0.0
-            {
+            if !shares_fit(sh.reflection, sh.transparency) || sh.ior <= 0.0 {
                 return Err(SceneError::BadShader { shader: i as u32 });
             }
         }

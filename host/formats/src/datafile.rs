@@ -11,6 +11,7 @@ use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
+use strahl_core::scene::model::SHARE;
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// The most elements of one kind an `_OBJ` hint reserves room for; it is never trusted further.
@@ -114,21 +115,19 @@ fn shader(line: &Line<'_>) -> Result<Shader, LoadError> {
             line.values[9]
         )));
     }
-    if !(0.0..=1.0).contains(&reflection) {
+    if !SHARE.contains(&reflection) {
         return Err(line.error(format!(
             "`_SHD`: reflection amount must be 0 to 1, found `{}`",
             line.values[10]
         )));
     }
-    Ok(Shader {
-        transparency: 0.0,
-        ior: 1.0,
-        ambient: Vec3::new(v[0], v[1], v[2]),
-        diffuse: Vec3::new(v[3], v[4], v[5]),
-        specular: Vec3::new(v[6], v[7], v[8]),
+    Ok(Shader::phong(
+        Vec3::new(v[0], v[1], v[2]),
+        Vec3::new(v[3], v[4], v[5]),
+        Vec3::new(v[6], v[7], v[8]),
         shininess,
         reflection,
-    })
+    ))
 }
 
 fn light(line: &Line<'_>) -> Result<Light, LoadError> {

@@ -1,6 +1,6 @@
 //! `strahl render`: its arguments ([`RenderArgs`], with the workers' options in
 //! [`ClusterArgs`]) and its run: load the scene ([`crate::formats::load`]), check the outputs,
-//! prepare the scene and start the workers ([`crate::cluster`], [`crate::executor`]), render
+//! prepare the scene and start the workers ([`crate::cluster`], [`crate::cluster::executor`]), render
 //! through the master while [`super::progress`] draws, write the image
 //! ([`crate::output`]) and the statistics, and print [`super::summary`].
 //!
@@ -10,10 +10,10 @@
 
 use super::progress::Progress;
 use super::summary::{RenderStats, RenderSummary};
+use crate::cluster::executor::{start_workers, WorkerSources};
 use crate::cluster::master::{run_master, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
-use crate::executor::{start_workers, WorkerSources};
 use crate::formats::fs::write_atomically;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
 use crate::output::{check_output_path, write_image};

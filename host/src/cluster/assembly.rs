@@ -3,7 +3,7 @@
 //! centres, the core's [`SecondPass`] says which lines' second passes are decided by them, and a
 //! second pass's flagged pixels are merged over the centres.
 
-use crate::cluster::master::{AdaptiveJob, ClusterJob};
+use crate::cluster::job::{AdaptiveJob, ClusterJob};
 use strahl_core::render::adaptive::{mask_len, merge_refined, SecondPass};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;

@@ -9,126 +9,20 @@
 
 use crate::cluster::link::Link;
 use crate::cluster::link_threads::Links;
-use crate::cluster::report::WorkerReport;
 use crate::cluster::session::{Event, Session, Wire};
 use crate::util::sys::POLL_INTERVAL;
 use std::collections::HashSet;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
-use std::sync::Arc;
 use std::time::{Duration, Instant};
-use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::message::MasterMessage;
-use strahl_core::wire::scene_blob::SceneBlob;
 
+pub use crate::cluster::job::{AdaptiveJob, ClusterError, ClusterImage, ClusterJob, MasterOptions};
 pub use crate::cluster::session::refusal_text;
 
 /// How long the master, at the end, waits for its `EndSession`s to be written and for the
 /// workers to close their links before it cuts those that did not.
 pub const END_SESSION_GRACE: Duration = Duration::from_secs(2);
-
-/// How the master schedules and when it gives up on a worker.
-#[derive(Clone, Debug)]
-pub struct MasterOptions {
-    /// Requests each worker has outstanding (1 is the seed's one line at a time).
-    pub window: u32,
-    /// Silence after which the master probes a worker (resends `Hello` or `Job`, or sends a
-    /// `Fence`).
-    pub probe_interval: Duration,
-    /// Silence, with work outstanding, after which a worker counts as hung and is dropped.
-    pub worker_timeout: Duration,
-    /// While more workers may join, how long to wait with none alive before giving up.
-    pub wait_for_workers: Duration,
-    /// The master's name in its `Hello`.
-    pub name: String,
-}
-
-impl Default for MasterOptions {
-    fn default() -> Self {
-        MasterOptions {
-            window: 2,
-            probe_interval: Duration::from_secs(2),
-            worker_timeout: Duration::from_secs(60),
-            wait_for_workers: Duration::from_secs(60),
-            name: "strahl-master".to_string(),
-        }
-    }
-}
-
-/// One render for the master: the scene's encoding and the image size.
-#[derive(Clone, Debug)]
-pub struct ClusterJob {
-    /// Job number, sent with every request.
-    pub id: u32,
-    /// The scene as workers receive it.
-    pub blob: Arc<SceneBlob>,
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Adaptive multisampling's second pass, if the scene uses it.
-    pub adaptive: Option<AdaptiveJob>,
-}
-
-/// How the master decides adaptive multisampling's second pass.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AdaptiveJob {
-    /// Pixels whose centre differs from a neighbour's by more than this are supersampled.
-    pub threshold: f32,
-    /// Ask for every pixel's samples and keep only the flagged ones (`--skip-effects off`).
-    pub refine_all: bool,
-}
-
-/// A finished distributed render.
-#[derive(Clone, Debug)]
-pub struct ClusterImage {
-    /// `width × height` pixels, row-major, top row first.
-    pub pixels: Vec<Pixel>,
-    /// Rays traced for the lines used.
-    pub rays: RayCounts,
-    /// What each worker did, in the order they joined.
-    pub workers: Vec<WorkerReport>,
-}
-
-/// Why a distributed render failed.
-#[derive(Debug, thiserror::Error)]
-pub enum ClusterError {
-    /// Every worker was lost (or none came) before the image was complete.
-    #[error("{}", lost_message(*.finished, *.total, .workers))]
-    AllWorkersLost {
-        /// Lines finished.
-        finished: u32,
-        /// Lines in the image.
-        total: u32,
-        /// Every worker, with why it was lost.
-        workers: Vec<WorkerReport>,
-    },
-    /// A worker thread could not be started.
-    #[error("cannot start a worker thread: {0}")]
-    Spawn(#[from] std::io::Error),
-}
-
-fn lost_message(finished: u32, total: u32, workers: &[WorkerReport]) -> String {
-    if workers.is_empty() {
-        return format!("no worker to render with: 0 of {total} lines finished");
-    }
-    let lost: Vec<String> = workers
-        .iter()
-        .map(|w| {
-            format!(
-                "{} ({})",
-                w.name,
-                w.lost.as_deref().unwrap_or("no longer answering")
-            )
-        })
-        .collect();
-    format!(
-        "all {} workers were lost; {finished} of {total} lines were finished, no image was \
-         written. Lost: {}",
-        workers.len(),
-        lost.join(", ")
-    )
-}
 
 /// Renders `job` with the workers behind `links`, plus any that arrive on `joins` while it
 /// runs. `on_line(y, rays)` is called for each line's first result, `log` with a message for

@@ -11,7 +11,7 @@
 //! together and says what a render's options, job, image and errors are.
 //!
 //! Executors: [`local`] worker threads (the default of `strahl render`), TCP and serial workers
-//! (started by [`crate::executor`]), each behind a [`link`]; [`prepared`] holds a scene built
+//! (started by [`executor`]), each behind a [`link`]; [`prepared`] holds a scene built
 //! and encoded once for all of them. For testing and planning: [`sim`] runs many in-process
 //! workers with link models and seeded faults against the real master, and [`model`] is a
 //! discrete-event model in virtual time that calls the same scheduler and window policy.
@@ -20,18 +20,23 @@
 //! - [`schedule`]: which line goes to which worker (no I/O, no clock).
 //! - `session`: each worker's session and the tasks in flight (no I/O).
 //! - `assembly`: the image from the results.
+//! - [`job`]: what a render asks of the master and gets back (options, job, image, errors).
 //! - [`master`]: the master loop over any set of [`link::Link`]s.
 //! - `link_threads`: the reader and writer thread of each link.
 //! - [`link`]: a connection to one worker over TCP, a serial port or an in-process [`pipe`].
 //! - [`pipe`]: in-process byte pipes, with a link model (latency, bandwidth, bit flips).
 //! - [`prepared`]: a scene built once and encoded once, for the master and in-process workers.
 //! - [`local`]: worker threads in this process, the default executor of `strahl render`.
+//! - [`executor`]: which workers a render uses (local threads, TCP, serial, dialling in,
+//!   launched on a hosts file's machines) and starting them.
 //! - [`sim`]: the simulated cluster: many in-process workers with speeds and seeded faults.
 //! - [`model`]: a discrete-event model of the master and workers in virtual time, for
 //!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
 
 pub(crate) mod assembly;
+pub mod executor;
+pub mod job;
 pub mod link;
 pub(crate) mod link_threads;
 pub mod local;

@@ -13,8 +13,8 @@
 //! back to the front of the queue.
 
 use crate::cluster::assembly::{Assembly, Decided};
+use crate::cluster::job::{ClusterError, ClusterImage, ClusterJob, MasterOptions};
 use crate::cluster::link::LinkKind;
-use crate::cluster::master::{ClusterError, ClusterImage, ClusterJob, MasterOptions};
 use crate::cluster::report::WorkerReport;
 use crate::cluster::schedule::{LineScheduler, Task};
 use std::collections::VecDeque;
@@ -674,7 +674,7 @@ pub fn refusal_text(reason: Refusal) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cluster::master::AdaptiveJob;
+    use crate::cluster::job::AdaptiveJob;
     use std::sync::Mutex;
     use strahl_core::wire::scene_blob::{digest, SceneBlob};
 

@@ -34,8 +34,8 @@ use strahl_core::geom::solid::{CsgOp, Shape, SolidNode, MAX_CSG_DEPTH};
 use strahl_core::math::transform::Transform;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{
-    settings::MAX_BOUNCES, Light, RenderSettings, SceneDesc, Shader, MAX_AMBIENT_OCCLUSION,
-    MAX_IMAGE_SIDE, MAX_SAMPLES,
+    model::shares_fit, settings::MAX_BOUNCES, Light, RenderSettings, SceneDesc, Shader,
+    MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
 
 /// The most analytic shapes a scene may expand to.
@@ -848,7 +848,7 @@ impl Expander {
         let shininess = num("shininess", DEFAULT_MATERIAL.shininess)?;
         let reflection = unit("reflectance")?;
         let transparency = unit("transparency")?;
-        if reflection + transparency > 1.0 {
+        if !shares_fit(reflection, transparency) {
             let later = [k.get("reflectance"), k.get("transparency")]
                 .into_iter()
                 .flatten()

@@ -1,0 +1,112 @@
+//! What a render asks of the master and what it gets back: the options, the job, the finished
+//! image and the errors. Plain data, used by the session, the assembly and the master loop.
+
+use crate::cluster::report::WorkerReport;
+use std::sync::Arc;
+use std::time::Duration;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
+use strahl_core::wire::scene_blob::SceneBlob;
+
+/// How the master schedules and when it gives up on a worker.
+#[derive(Clone, Debug)]
+pub struct MasterOptions {
+    /// Requests each worker has outstanding (1 is the seed's one line at a time).
+    pub window: u32,
+    /// Silence after which the master probes a worker (resends `Hello` or `Job`, or sends a
+    /// `Fence`).
+    pub probe_interval: Duration,
+    /// Silence, with work outstanding, after which a worker counts as hung and is dropped.
+    pub worker_timeout: Duration,
+    /// While more workers may join, how long to wait with none alive before giving up.
+    pub wait_for_workers: Duration,
+    /// The master's name in its `Hello`.
+    pub name: String,
+}
+
+impl Default for MasterOptions {
+    fn default() -> Self {
+        MasterOptions {
+            window: 2,
+            probe_interval: Duration::from_secs(2),
+            worker_timeout: Duration::from_secs(60),
+            wait_for_workers: Duration::from_secs(60),
+            name: "strahl-master".to_string(),
+        }
+    }
+}
+
+/// One render for the master: the scene's encoding and the image size.
+#[derive(Clone, Debug)]
+pub struct ClusterJob {
+    /// Job number, sent with every request.
+    pub id: u32,
+    /// The scene as workers receive it.
+    pub blob: Arc<SceneBlob>,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Adaptive multisampling's second pass, if the scene uses it.
+    pub adaptive: Option<AdaptiveJob>,
+}
+
+/// How the master decides adaptive multisampling's second pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveJob {
+    /// Pixels whose centre differs from a neighbour's by more than this are supersampled.
+    pub threshold: f32,
+    /// Ask for every pixel's samples and keep only the flagged ones (`--skip-effects off`).
+    pub refine_all: bool,
+}
+
+/// A finished distributed render.
+#[derive(Clone, Debug)]
+pub struct ClusterImage {
+    /// `width × height` pixels, row-major, top row first.
+    pub pixels: Vec<Pixel>,
+    /// Rays traced for the lines used.
+    pub rays: RayCounts,
+    /// What each worker did, in the order they joined.
+    pub workers: Vec<WorkerReport>,
+}
+
+/// Why a distributed render failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ClusterError {
+    /// Every worker was lost (or none came) before the image was complete.
+    #[error("{}", lost_message(*.finished, *.total, .workers))]
+    AllWorkersLost {
+        /// Lines finished.
+        finished: u32,
+        /// Lines in the image.
+        total: u32,
+        /// Every worker, with why it was lost.
+        workers: Vec<WorkerReport>,
+    },
+    /// A worker thread could not be started.
+    #[error("cannot start a worker thread: {0}")]
+    Spawn(#[from] std::io::Error),
+}
+
+fn lost_message(finished: u32, total: u32, workers: &[WorkerReport]) -> String {
+    if workers.is_empty() {
+        return format!("no worker to render with: 0 of {total} lines finished");
+    }
+    let lost: Vec<String> = workers
+        .iter()
+        .map(|w| {
+            format!(
+                "{} ({})",
+                w.name,
+                w.lost.as_deref().unwrap_or("no longer answering")
+            )
+        })
+        .collect();
+    format!(
+        "all {} workers were lost; {finished} of {total} lines were finished, no image was \
+         written. Lost: {}",
+        workers.len(),
+        lost.join(", ")
+    )
+}
