@@ -9,7 +9,8 @@
 //! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule.
 //! 3. [`accel`]: the arena octree over triangles and bounded solids.
 //! 4. [`scene`]: the scene model loaders fill in, render settings and their limits, cameras,
-//!    which effects can change a pixel, validation, and the prepared [`scene::Scene`].
+//!    which effects can change a pixel, validation, the prepared [`scene::Scene`], and
+//!    procedural meshes for generated scenes and tests.
 //! 5. [`render`]: scene queries, optics, sampling, shading, pixels, ray statistics,
 //!    [`render::render_line`] (the unit of work every executor calls), adaptive multisampling's
 //!    second pass and [`render::render_image`].

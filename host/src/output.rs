@@ -89,13 +89,14 @@ pub fn to_rgb_image(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result
     let expected = width as usize * height as usize;
     if pixels.len() != expected {
         bail!(
-            "internal error: {} pixels for a {width}x{height} image ({expected} expected)",
+            "cannot write a {width}x{height} image from {} pixels ({expected} expected)",
             pixels.len()
         );
     }
     let raw: Vec<u8> = pixels.iter().flat_map(|p| p.to_rgb8()).collect();
+    // The length was checked above, so `from_raw` cannot refuse the buffer.
     image::RgbImage::from_raw(width, height, raw)
-        .context("internal error: the pixel buffer does not match the image size")
+        .context("cannot write the image: its pixel buffer does not match its size")
 }
 
 /// Writes `pixels` (row-major, top row first) as a `width × height` image to `path`: BMP or PNG

@@ -25,6 +25,7 @@ use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::mesh::Rng;
 use strahl_core::wire::frame::{FrameReader, ReadEvent};
 use strahl_core::wire::message::MasterMessage;
 use strahl_core::wire::{MAX_MASTER_FRAME_LEN, SCENE_WINDOW};
@@ -37,7 +38,6 @@ use strahl_host::cluster::prepared::PreparedScene;
 use strahl_host::cluster::report::WorkerReport;
 use strahl_host::cluster::sim::{spawn_sim_worker, Fault, SimWorker};
 use strahl_host::formats::load::{load_config_scene, Overrides};
-use strahl_host::generate::Rng;
 
 /// The longest a gate holds a link shut; only reached if the test is already failing.
 const GATE_LIMIT: Duration = Duration::from_secs(20);

@@ -10,9 +10,6 @@
 //! the pixel `render_line` produced). Expected pixels come from a small `f64` reference
 //! ([`Reference`]) that leaves out pixels within a margin of an edge or a shadow boundary.
 
-mod common;
-
-use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use std::collections::HashMap;
@@ -32,12 +29,13 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::scene::error::SceneError;
+use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core_tests::checked::*;
+use strahl_core_tests::meshes::{boundary_grid, positions, random_soup};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
 use strahl_host::formats::load::{load_config_scene, Overrides};
-use strahl_host::generate::Rng;
-use strahl_tests::{boundary_grid, positions, random_soup};
 
 // ---------------------------------------------------------------------------------------------
 // f64 vectors (the workspace builds glam without its f64 types)
@@ -1104,7 +1102,7 @@ fn near_parallel_rays_below_ten_micro_radians_hit() {
 
 /// An `n × n` grid of quads from `origin` along `u` and `v`, as triangles.
 fn grid(origin: Vec3, u: Vec3, v: Vec3, n: u32) -> Vec<[Vec3; 3]> {
-    let mut m = strahl_host::generate::MeshBuilder::default();
+    let mut m = strahl_core::scene::mesh::MeshBuilder::default();
     m.grid(origin, u, v, n, 0);
     positions(&m)
 }

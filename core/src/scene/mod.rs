@@ -10,14 +10,18 @@
 //! - [`validate`]: [`SceneDesc::validate`], every rule and index checked before preparing.
 //! - [`prepared`]: [`Scene::build`], which validates, computes smooth vertex normals, prepares the
 //!   solids and builds the octree.
+//! - [`mesh`]: [`MeshBuilder`](mesh::MeshBuilder) and [`Rng`](mesh::Rng), procedural meshes
+//!   for generated scenes and tests.
 //! - [`error`]: [`SceneError`](error::SceneError), why a description cannot be prepared.
 //!
-//! Inside the layer: `settings` ← `model` ← `effects`, `validate` ← `prepared`; the layer uses
+//! Inside the layer: `settings` ← `model` ← `effects`, `validate`, `mesh`; `effects`, `validate` ←
+//! `prepared`; the layer uses
 //! `math`, `geom` and `accel` below it.
 
 pub mod camera;
 pub mod effects;
 pub mod error;
+pub mod mesh;
 pub mod model;
 pub mod prepared;
 pub mod settings;

@@ -77,7 +77,9 @@ fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
             strahl_core::wire::PROTOCOL_VERSION
         ),
         Err(WorkerError::Link(e)) => format!("the link failed: {e:?}"),
-        Err(WorkerError::Encode(e)) => format!("internal error: {e}"),
+        Err(WorkerError::Encode(e)) => {
+            format!("a reply to the master could not be encoded ({e}); session ended")
+        }
     }
 }
 

@@ -4,8 +4,8 @@
 use glam::Vec3;
 use strahl_core::accel::octree::{Octree, OctreeParams};
 use strahl_core::math::ray::Ray;
-use strahl_host::generate::Rng;
-use strahl_tests::{closed_sphere, positions};
+use strahl_core::scene::mesh::Rng;
+use strahl_core_tests::meshes::{closed_sphere, positions};
 
 #[test]
 fn rays_from_inside_a_closed_mesh_always_hit() {

@@ -1,7 +1,6 @@
 //! Helpers shared by the integration tests that render scenes or query solids: a checked
 //! render (every pixel's centre ray traced again, its colour finite and equal to the pixel) and
 //! the closest solid hit of a ray with its surface. Each test file uses only some of them.
-#![allow(dead_code)]
 
 use glam::Vec3;
 use strahl_core::geom::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
@@ -95,6 +94,7 @@ pub struct Found {
     pub surface: SolidSurface,
 }
 
+/// The closest solid hit of `ray` in `scene` (which must hold only solids), with its surface.
 pub fn closest(scene: &Scene, ray: &Ray) -> Option<Found> {
     let mut scratch = SpanScratch::default();
     match scene.closest_hit(ray, f32::INFINITY, &mut scratch)? {

@@ -1,7 +1,8 @@
-//! Shared helpers for the integration tests in `tests/tests/`: triangle sets to shoot rays at.
+//! Triangle sets to shoot rays at: random soups, closed jittered spheres, grids on octree cell
+//! planes, and their bounds.
 
 use glam::Vec3;
-use strahl_host::generate::{MeshBuilder, Rng};
+use strahl_core::scene::mesh::{MeshBuilder, Rng};
 
 /// Vertex positions per triangle, as the octree and brute force take them.
 pub fn positions(m: &MeshBuilder) -> Vec<[Vec3; 3]> {
@@ -73,7 +74,7 @@ pub fn boundary_grid(n: u32) -> MeshBuilder {
 /// ```
 /// use glam::Vec3;
 /// let tris = [[Vec3::ZERO, Vec3::X, Vec3::new(0.0, 2.0, -1.0)]];
-/// assert_eq!(strahl_tests::bounds(&tris), (Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 0.0)));
+/// assert_eq!(strahl_core_tests::meshes::bounds(&tris), (Vec3::new(0.0, 0.0, -1.0), Vec3::new(1.0, 2.0, 0.0)));
 /// ```
 pub fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
     let mut lo = Vec3::splat(f32::INFINITY);

@@ -2,9 +2,6 @@
 //! `A − B`, hit points on the exact surface within their error bound, the octree against brute
 //! force, and secondary rays that never re-hit the surface they leave.
 
-mod common;
-
-use common::*;
 use glam::Vec3;
 use proptest::prelude::*;
 use strahl_core::accel::octree::OctreeParams;
@@ -13,8 +10,9 @@ use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, Scene, SceneDesc, Shader};
-use strahl_host::generate::Rng;
+use strahl_core_tests::checked::*;
 
 // ---------------------------------------------------------------------------------------------
 // Builders

@@ -6,8 +6,8 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
+use strahl_core::scene::mesh::MeshBuilder;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_host::generate::MeshBuilder;
 
 fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {
     Shader {

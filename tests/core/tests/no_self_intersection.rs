@@ -6,8 +6,8 @@ use glam::Vec3;
 use strahl_core::accel::octree::{Octree, OctreeParams};
 use strahl_core::geom::triangle::{area_normal, hit_point, intersect, RayFrame};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
-use strahl_host::generate::Rng;
-use strahl_tests::{bounds, closed_sphere, positions, random_soup};
+use strahl_core::scene::mesh::Rng;
+use strahl_core_tests::meshes::{bounds, closed_sphere, positions, random_soup};
 
 fn check_scale(scale: f32, seed: u64) -> usize {
     let mut rng = Rng::new(seed);

@@ -18,9 +18,6 @@
 //! Colours are checked before quantisation: every render also traces each pixel's centre ray
 //! itself and asserts the colour is finite ([`Pixel`] would turn NaN into 0).
 
-mod common;
-
-use common::*;
 use glam::{Mat3, Vec3};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::shape::{self, ShapeSpan};
@@ -31,8 +28,9 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::shade::{trace, TraceScratch};
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, SeedCamera};
+use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
-use strahl_host::generate::Rng;
+use strahl_core_tests::checked::*;
 
 // ---------------------------------------------------------------------------------------------
 // Scene building

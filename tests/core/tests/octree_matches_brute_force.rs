@@ -5,8 +5,8 @@
 use glam::Vec3;
 use strahl_core::accel::octree::{brute_force_closest_hit, Octree, OctreeParams};
 use strahl_core::math::ray::Ray;
-use strahl_host::generate::{MeshBuilder, Rng};
-use strahl_tests::{boundary_grid, bounds, closed_sphere, positions, random_soup};
+use strahl_core::scene::mesh::{MeshBuilder, Rng};
+use strahl_core_tests::meshes::{boundary_grid, bounds, closed_sphere, positions, random_soup};
 
 fn key(h: Option<strahl_core::accel::octree::Hit>) -> Option<(u32, u32)> {
     h.map(|h| (h.triangle, h.tri.t.to_bits()))
