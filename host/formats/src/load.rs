@@ -8,16 +8,20 @@
 use crate::config::read_config;
 use crate::datafile::read_data;
 use crate::error::LoadError;
+use core::fmt::Display;
+use core::ops::RangeInclusive;
 use std::path::{Path, PathBuf};
 use strahl_core::scene::camera::Camera;
-use strahl_core::scene::settings::{
-    AA_THRESHOLD, AMBIENT_OCCLUSION, MAX_BOUNCES, MAX_DEPTH, SAMPLES,
-};
-use strahl_core::scene::{
-    RenderSettings, SceneDesc, MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
-};
+use strahl_core::scene::settings::{AA_THRESHOLD, AMBIENT_OCCLUSION, MAX_DEPTH, SAMPLES};
+use strahl_core::scene::{RenderSettings, SceneDesc, MAX_IMAGE_SIDE};
 
-/// Settings from the command line; each one given replaces the configuration file's.
+/// Settings from the command line; each one given replaces the scene file's.
+///
+/// The settings themselves and their ranges are core's ([`RenderSettings`] and the ranges in
+/// `strahl_core::scene::settings`); this is the set a caller may leave unset. The command line's
+/// clap type (`RenderArgs` in the host) fills it in one place, `RenderArgs::overrides`: it is a
+/// separate type so that a user of these parsers does not need clap. Clap checks the same ranges
+/// before a flag gets here; [`apply_overrides`] checks them again for callers of this crate.
 #[derive(Clone, Debug, Default)]
 pub struct Overrides {
     /// Output image, used as given (relative to the current directory).
@@ -104,15 +108,21 @@ pub fn load_config_scene(
         }
     };
 
-    let side = |v: Option<u32>, file: u32, what: &str| match v {
-        None => Ok(file),
-        Some(v) if (1..=MAX_IMAGE_SIDE).contains(&v) => Ok(v),
-        Some(v) => Err(config_error(format!(
-            "the image {what} given on the command line must be 1 to {MAX_IMAGE_SIDE}, found {v}"
-        ))),
+    let given = |v: Option<u32>, file: u32, range, what| {
+        v.map_or(Ok(file), |v| in_range(v, range, what).map_err(config_error))
     };
-    let width = side(overrides.width, cfg.width, "width")?;
-    let height = side(overrides.height, cfg.height, "height")?;
+    let width = given(
+        overrides.width,
+        cfg.width,
+        1..=MAX_IMAGE_SIDE,
+        "image width",
+    )?;
+    let height = given(
+        overrides.height,
+        cfg.height,
+        1..=MAX_IMAGE_SIDE,
+        "image height",
+    )?;
     let index_base = overrides.index_base.unwrap_or(cfg.index_base);
     if index_base > 1 {
         return Err(config_error(format!(
@@ -247,36 +257,16 @@ pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String
         s.reflections = v;
     }
     if let Some(m) = o.samples {
-        if !SAMPLES.contains(&m) {
-            return Err(format!(
-                "the multisample given on the command line must be 1 to {MAX_SAMPLES}, found {m}"
-            ));
-        }
-        s.samples = m;
+        s.samples = in_range(m, SAMPLES, "multisample")?;
     }
     if let Some(d) = o.max_depth {
-        if !MAX_DEPTH.contains(&d) {
-            return Err(format!(
-                "the max depth given on the command line must be 0 to {MAX_BOUNCES}, found {d}"
-            ));
-        }
-        s.max_depth = d;
+        s.max_depth = in_range(d, MAX_DEPTH, "max depth")?;
     }
     if let Some(a) = o.ambient_occlusion {
-        if !AMBIENT_OCCLUSION.contains(&a) {
-            return Err(format!(
-                "the ambient occlusion given on the command line must be 0 to {MAX_AMBIENT_OCCLUSION}, found {a}"
-            ));
-        }
-        s.ambient_occlusion = a;
+        s.ambient_occlusion = in_range(a, AMBIENT_OCCLUSION, "ambient occlusion")?;
     }
     if let Some(t) = o.aa_threshold {
-        if !AA_THRESHOLD.contains(&t) {
-            return Err(format!(
-                "the multisampling threshold given on the command line must be 0 to 1, found {t}"
-            ));
-        }
-        s.aa_threshold = Some(t);
+        s.aa_threshold = Some(in_range(t, AA_THRESHOLD, "multisampling threshold")?);
     }
     if let Some(v) = o.skip_effects {
         s.skip_effects = v;
@@ -294,4 +284,21 @@ pub fn apply_overrides(desc: &mut SceneDesc, o: &Overrides) -> Result<(), String
         }
     }
     Ok(())
+}
+
+/// `value` if `range` (one of core's settings ranges) holds it, else the message that names the
+/// setting `what` and the range.
+fn in_range<T>(value: T, range: RangeInclusive<T>, what: &str) -> Result<T, String>
+where
+    T: PartialOrd + Display,
+{
+    if range.contains(&value) {
+        Ok(value)
+    } else {
+        Err(format!(
+            "the {what} given on the command line must be {} to {}, found {value}",
+            range.start(),
+            range.end()
+        ))
+    }
 }

@@ -10,6 +10,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 use strahl_core::render::stats::RayCounts;
 
+/// How often the bar redraws (its elapsed time and ETA) when no line arrives.
+const REDRAW_INTERVAL: Duration = Duration::from_millis(250);
+
 /// Progress of a render, safe to update from many worker threads.
 #[derive(Debug)]
 pub struct Progress {
@@ -31,7 +34,7 @@ impl Progress {
             .progress_chars("=> ");
             bar.set_style(style);
             bar.set_message("- rays/s");
-            bar.enable_steady_tick(Duration::from_millis(250));
+            bar.enable_steady_tick(REDRAW_INTERVAL);
             bar
         });
         Progress {

@@ -11,6 +11,7 @@
 use super::progress::Progress;
 use super::summary::{RenderStats, RenderSummary};
 use crate::cluster::executor::{start_workers, WorkerSources};
+use crate::cluster::job::{PROBE_INTERVAL, WINDOW, WORKER_TIMEOUT};
 use crate::cluster::master::{run_master, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
@@ -234,13 +235,13 @@ pub struct ClusterArgs {
     pub serial: Vec<String>,
 
     /// Line requests each worker has outstanding; 1 is the seed's one line at a time.
-    #[arg(long, value_name = "N", default_value_t = 2,
+    #[arg(long, value_name = "N", default_value_t = WINDOW,
           value_parser = clap::value_parser!(u32).range(1..=64))]
     pub window: u32,
 
     /// Seconds a worker with work may stay silent before it counts as hung and its lines go to
     /// others; also how long a listening master waits with no worker.
-    #[arg(long, value_name = "SECS", default_value_t = 60.0, value_parser = positive_seconds)]
+    #[arg(long, value_name = "SECS", default_value_t = WORKER_TIMEOUT.as_secs_f64(), value_parser = positive_seconds)]
     pub worker_timeout: f64,
 }
 
@@ -308,7 +309,7 @@ impl RenderArgs {
         let timeout = Duration::from_secs_f64(self.cluster.worker_timeout);
         MasterOptions {
             window: self.cluster.window,
-            probe_interval: (timeout / 4).min(Duration::from_secs(2)),
+            probe_interval: (timeout / 4).min(PROBE_INTERVAL),
             worker_timeout: timeout,
             wait_for_workers: timeout,
             name: crate::util::sys::host_name(),

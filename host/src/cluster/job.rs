@@ -24,13 +24,23 @@ pub struct MasterOptions {
     pub name: String,
 }
 
+/// The longest silence before the master probes a worker (a shorter worker timeout probes at a
+/// quarter of it).
+pub const PROBE_INTERVAL: Duration = Duration::from_secs(2);
+
+/// The default worker timeout and wait for workers (`--worker-timeout`).
+pub const WORKER_TIMEOUT: Duration = Duration::from_secs(60);
+
+/// The default number of lines a worker holds at once (`--window`).
+pub const WINDOW: u32 = 2;
+
 impl Default for MasterOptions {
     fn default() -> Self {
         MasterOptions {
-            window: 2,
-            probe_interval: Duration::from_secs(2),
-            worker_timeout: Duration::from_secs(60),
-            wait_for_workers: Duration::from_secs(60),
+            window: WINDOW,
+            probe_interval: PROBE_INTERVAL,
+            worker_timeout: WORKER_TIMEOUT,
+            wait_for_workers: WORKER_TIMEOUT,
             name: "strahl-master".to_string(),
         }
     }

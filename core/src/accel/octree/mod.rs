@@ -7,7 +7,8 @@
 //!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
 //!   not stored but derived from the parent's by halving.
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre and files a triangle in
-//!   every child cell it touches (exact separating-axis test on a box grown by its error bound).
+//!   every child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by
+//!   its error bound).
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses, nearest child first, with a fixed-size stack.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
