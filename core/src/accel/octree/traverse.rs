@@ -150,7 +150,7 @@ impl Octree {
 /// The children of `e`'s cell that the ray crosses, in ray order, as (child, t0, t1) pieces of
 /// the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]`, each widened by `widen` around its
 /// inner crossings of the centre planes through `mid`; returns them and the count less one.
-#[inline]
+#[inline(always)]
 fn pieces(
     ray: &Ray,
     inv_dir: Vec3,

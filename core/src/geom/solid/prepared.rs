@@ -299,6 +299,7 @@ impl Solids {
 
     /// The first surface of object `object` that `ray` crosses with `t` in front of its origin
     /// (beyond the crossing's error bound) and below `t_max`.
+    #[inline]
     pub fn first_hit(
         &self,
         object: u32,
