@@ -5,7 +5,7 @@
 //! is the seed's configuration file with the data file it names ([`load_config_scene`]). Then
 //! [`apply_overrides`] lets the command line beat the file, as FART's rule says.
 
-use crate::config::read_config;
+use crate::config::{read_config, Config};
 use crate::datafile::read_data;
 use crate::error::LoadError;
 use core::fmt::Display;
@@ -88,26 +88,7 @@ pub fn load_config_scene(
         path: config_path.to_path_buf(),
         message,
     };
-    let folder = config_path.parent().unwrap_or_else(|| Path::new(""));
-
-    let output = match (&overrides.output, &cfg.image_name) {
-        (Some(o), _) => o.clone(),
-        (None, Some(name)) => folder.join(name),
-        (None, None) => {
-            return Err(config_error(
-                "`$IMAGE_NAME` is missing; it names the output image".to_string(),
-            ))
-        }
-    };
-    let data_path = match &cfg.input_data {
-        Some(name) => folder.join(name),
-        None => {
-            return Err(config_error(
-                "`$INPUT_DATA` is missing; it names the data file".to_string(),
-            ))
-        }
-    };
-
+    let (output, data_path) = file_paths(config_path, &cfg, overrides).map_err(config_error)?;
     let given = |v: Option<u32>, file: u32, range, what| {
         v.map_or(Ok(file), |v| in_range(v, range, what).map_err(config_error))
     };
@@ -131,7 +112,7 @@ pub fn load_config_scene(
     }
 
     let data = read_data(&data_path, index_base)?;
-    let desc = SceneDesc {
+    let mut desc = SceneDesc {
         points: data.points,
         triangles: data.triangles,
         shaders: data.shaders,
@@ -150,7 +131,6 @@ pub fn load_config_scene(
             ..RenderSettings::default()
         },
     };
-    let mut desc = desc;
     apply_overrides(&mut desc, overrides).map_err(config_error)?;
     desc.validate().map_err(|e| LoadError::File {
         path: data_path.clone(),
@@ -162,6 +142,26 @@ pub fn load_config_scene(
         config_path: config_path.to_path_buf(),
         data_path,
     })
+}
+
+/// The output image (`overrides.output` as given, else `$IMAGE_NAME`) and the data file
+/// (`$INPUT_DATA`), the file names resolved against the configuration file's folder.
+fn file_paths(
+    config_path: &Path,
+    cfg: &Config,
+    overrides: &Overrides,
+) -> Result<(PathBuf, PathBuf), String> {
+    let folder = config_path.parent().unwrap_or_else(|| Path::new(""));
+    let output = match (&overrides.output, &cfg.image_name) {
+        (Some(o), _) => o.clone(),
+        (None, Some(name)) => folder.join(name),
+        (None, None) => return Err("`$IMAGE_NAME` is missing; it names the output image".into()),
+    };
+    let data_path = match &cfg.input_data {
+        Some(name) => folder.join(name),
+        None => return Err("`$INPUT_DATA` is missing; it names the data file".into()),
+    };
+    Ok((output, data_path))
 }
 
 /// Which reader a scene file needs, by its extension.
