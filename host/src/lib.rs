@@ -7,7 +7,7 @@
 //! | group | where | what |
 //! |---|---|---|
 //! | formats | [`formats`] (`host/formats`): `lines config datafile nff obj mesh fart/ hosts load convert fs error` | every file read or written in Strahl's scene formats, each reader beside its writer; atomic file writes |
-//! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene, test meshes) |
+//! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene), built with core's `scene::mesh` |
 //! | cluster | [`cluster`]: master, scheduler, links, local and simulated workers, and `executor` (which workers a render uses, and starting them) | rendering through workers |
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
 //! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `stats` | `strahl bench` and its studies |

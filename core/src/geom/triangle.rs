@@ -8,7 +8,7 @@
 //!
 //! A hit's `t` comes with an error bound. When the `f32` bound cannot tell whether `t` is
 //! positive (a hit very close to the origin compared with the triangle's size, or a ray nearly
-//! parallel to a large triangle), `t` and its bound are computed again in `f64` ([`refine_in_f64`]),
+//! parallel to a large triangle), `t` and its bound are computed again in `f64` (`refine_in_f64`),
 //! whose bound is some 5·10⁸ times tighter; a hit whose `t` is still not provably positive is
 //! rejected. The inside/outside decision is always the `f32` one, so watertightness is kept.
 

@@ -134,7 +134,7 @@ impl Sweep<'_> {
 /// Boundaries that follow each other within their merge error bounds form a cluster, which is
 /// crossed as one: only the state before and after it counts, so touching operands leave neither
 /// slivers nor gaps. Where a cluster makes the composite begin or end, the boundary that names
-/// its surface is chosen by [`surface_of_cluster`], using `normal` (a boundary's outward normal
+/// its surface is chosen by `surface_of_cluster`, using `normal` (a boundary's outward normal
 /// as the composite sees it) to recognise the inner walls of shared faces.
 pub fn combine<N>(op: CsgOp, a: &[Span], b: &[Span], out: &mut Vec<Span>, mut normal: N)
 where
