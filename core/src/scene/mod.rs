@@ -14,9 +14,9 @@
 //!   for generated scenes and tests.
 //! - [`error`]: [`SceneError`](error::SceneError), why a description cannot be prepared.
 //!
-//! Inside the layer: `settings` ← `model` ← `effects`, `validate`, `mesh`; `effects`, `validate` ←
-//! `prepared`; the layer uses
-//! `math`, `geom` and `accel` below it.
+//! Inside the layer (`a ← b`: `b` uses `a`): `settings` ← `model` ← `effects`, `validate`,
+//! `mesh`, and `effects`, `validate` ← `prepared`; the layer uses `math`, `geom` and `accel`
+//! below it.
 
 pub mod camera;
 pub mod effects;
