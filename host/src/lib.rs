@@ -29,9 +29,10 @@
 //! - `cluster` uses `formats` (the hosts file) and `util`; it takes plain structs
 //!   (`WorkerSources`, `MasterOptions`), never clap types.
 //! - the benchmarks use `cluster`, `formats`, `generate` and `util`; `output` uses `formats::fs`.
-//! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`,
-//!   except the benchmarks' own, which stay beside the studies they configure in
-//!   [`bench`](mod@bench) and are reached only through [`cli::bench`].
+//! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`
+//!   (`cli::bench` holds the benchmarks'); each subcommand turns its arguments into the plain
+//!   options struct of the group it calls ([`formats::load::Overrides`],
+//!   [`cluster::job::MasterOptions`], `bench::scaling::ScalingOptions`, ...).
 //!
 //! Why the formats are a crate and the rest are folders: the parsers are the part with users of
 //! their own (a tool that reads `.fart` or `raytracer.cfg` files), who should not pull in a
@@ -39,9 +40,9 @@
 //! of dependencies, a compiler error rather than a convention. The other groups share the
 //! binary's dependencies anyway, so separate crates would buy them only build boundaries; inside
 //! this crate, `tests/tests/layers.rs` fails when a group imports from one above it or two
-//! modules import each other round a loop, and when the cluster names clap. The cluster could
-//! become a crate too; today only the binary and the benchmarks use it, so the boundary would
-//! buy nothing the layer check does not.
+//! modules import each other round a loop, and when a module outside `cli` names clap. The
+//! cluster could become a crate too; today only the binary and the benchmarks use it, so the
+//! boundary would buy nothing the layer check does not.
 
 pub mod bench;
 pub mod cli;

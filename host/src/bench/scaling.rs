@@ -29,34 +29,22 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::{RenderSettings, Scene, SceneDesc};
 
-/// Arguments of `strahl bench scaling`.
-#[derive(Debug, clap::Args)]
-pub struct ScalingArgs {
+/// What `strahl bench scaling` measures (its command line is `cli::bench::ScalingArgs`).
+#[derive(Clone, Debug)]
+pub struct ScalingOptions {
     /// Image width of the demo room.
-    #[arg(long, value_name = "PIXELS", default_value_t = 640,
-          value_parser = clap::value_parser!(u32).range(16..=4096))]
     pub width: u32,
     /// Image height of the demo room.
-    #[arg(long, value_name = "PIXELS", default_value_t = 480,
-          value_parser = clap::value_parser!(u32).range(16..=4096))]
     pub height: u32,
     /// Runs per figure (the median is reported).
-    #[arg(long, value_name = "N", default_value_t = 5,
-          value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
-    /// Most workers measured for real [default: the number of CPUs].
-    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    /// Most workers measured for real; `None`: the number of CPUs.
     pub max_real: Option<u32>,
-    /// Most workers in the model (the seed compared 1 to 12 machines).
-    #[arg(long, value_name = "N", default_value_t = 12,
-          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    /// Most workers in the model.
     pub up_to: u32,
     /// Requests each worker has outstanding.
-    #[arg(long, value_name = "N", default_value_t = 2,
-          value_parser = clap::value_parser!(u32).range(1..=64))]
     pub window: u32,
     /// Skip the TCP worker processes (in-process and model only).
-    #[arg(long)]
     pub no_tcp: bool,
 }
 
@@ -252,13 +240,13 @@ struct Measured {
 ///
 /// # Errors
 /// If a worker process cannot be started or reached, or a render fails.
-pub fn run(args: &ScalingArgs) -> anyhow::Result<()> {
+pub fn run(args: &ScalingOptions) -> anyhow::Result<()> {
     let measured = measure(args)?;
     print_table(&mut std::io::stdout().lock(), args, &measured)
 }
 
 /// Measures the in-process and TCP times and runs the model.
-fn measure(args: &ScalingArgs) -> anyhow::Result<Measured> {
+fn measure(args: &ScalingOptions) -> anyhow::Result<Measured> {
     let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get) as u32;
     let max_real = args.max_real.unwrap_or(cores).max(1);
     let runs = args.runs.max(1) as usize;
@@ -337,7 +325,7 @@ fn measure(args: &ScalingArgs) -> anyhow::Result<Measured> {
 }
 
 /// The report: what was measured, then a row per worker count.
-fn print_table(out: &mut impl Write, args: &ScalingArgs, m: &Measured) -> anyhow::Result<()> {
+fn print_table(out: &mut impl Write, args: &ScalingOptions, m: &Measured) -> anyhow::Result<()> {
     let Measured {
         cores,
         max_real,

@@ -1,13 +1,166 @@
-//! `strahl bench`: the subcommand's entry. Its clap types ([`BenchArgs`] and those of its
-//! sub-benchmarks) still live in [`crate::bench`], whose owner moves them here in a later change;
-//! this module is the one place [`super::run`] reaches the benchmarks through.
+//! `strahl bench`: its command line and the dispatch to the benchmarks.
+//!
+//! The clap types of `strahl bench` ([`BenchArgs`]), `bench scaling` ([`ScalingArgs`]) and
+//! `bench accuracy` ([`AccuracyArgs`]) live here, like every other clap type; each becomes the
+//! plain options struct its benchmark in [`crate::bench`] takes, so the benchmarks name no clap.
 
-pub use crate::bench::BenchArgs;
+use crate::bench::accuracy::{self, parse_size, AccuracyOptions, ImageSize};
+use crate::bench::scaling::{self, ScalingOptions};
+use crate::bench::speed::{self, BenchOptions};
+use crate::cluster::job::WINDOW;
+use std::io::Write as _;
+use std::path::PathBuf;
+use strahl_core::accel::octree::{OctreeParams, MAX_DEPTH_LIMIT};
 
-/// Runs `strahl bench` ([`crate::bench::run_command`]).
+/// Arguments of `strahl bench`.
+#[derive(Debug, clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct BenchArgs {
+    /// Another benchmark instead of the core figures.
+    #[command(subcommand)]
+    pub command: Option<BenchCommand>,
+    /// Least number of triangles of the generated scene.
+    #[arg(long, value_name = "N", default_value_t = 100_000,
+          value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
+    pub triangles: u32,
+    /// Side of the square image rendered for the ray figures.
+    #[arg(long, value_name = "PIXELS", default_value_t = 512,
+          value_parser = clap::value_parser!(u32).range(16..=8192))]
+    pub size: u32,
+    /// Runs per figure (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Octree depth limit.
+    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_depth,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_DEPTH_LIMIT)))]
+    pub octree_depth: u32,
+    /// Octree leaf size: cells with at most this many triangles are not split.
+    #[arg(long, value_name = "N", default_value_t = OctreeParams::default().max_leaf_triangles,
+          value_parser = clap::value_parser!(u32).range(1..=1024))]
+    pub octree_leaf: u32,
+}
+
+/// The benchmarks besides the core figures.
+#[derive(Debug, clap::Subcommand)]
+pub enum BenchCommand {
+    /// Speedup over 1..N workers: in-process and TCP worker processes measured on this
+    /// machine, a discrete-event model beyond it (the seed's 1-to-12-machines comparison).
+    Scaling(ScalingArgs),
+    /// What accuracy costs in time: each quality knob swept alone against a converged
+    /// reference (RMSE, PSNR, SSIM, median time), written to docs/accuracy.md with a plot.
+    Accuracy(AccuracyArgs),
+}
+
+/// Arguments of `strahl bench scaling`.
+#[derive(Debug, clap::Args)]
+pub struct ScalingArgs {
+    /// Image width of the demo room.
+    #[arg(long, value_name = "PIXELS", default_value_t = 640,
+          value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub width: u32,
+    /// Image height of the demo room.
+    #[arg(long, value_name = "PIXELS", default_value_t = 480,
+          value_parser = clap::value_parser!(u32).range(16..=4096))]
+    pub height: u32,
+    /// Runs per figure (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Most workers measured for real [default: the number of CPUs].
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=256))]
+    pub max_real: Option<u32>,
+    /// Most workers in the model (the seed compared 1 to 12 machines).
+    #[arg(long, value_name = "N", default_value_t = 12,
+          value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub up_to: u32,
+    /// Requests each worker has outstanding.
+    #[arg(long, value_name = "N", default_value_t = WINDOW,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
+    pub window: u32,
+    /// Skip the TCP worker processes (in-process and model only).
+    #[arg(long)]
+    pub no_tcp: bool,
+}
+
+/// Arguments of `strahl bench accuracy`.
+#[derive(Debug, clap::Args)]
+pub struct AccuracyArgs {
+    /// A scene to measure (repeatable) [default: scenes/room/raytracer.cfg and the first two
+    /// scenes/fart/*.fart that load, mirrors.fart and glass.fart first; from the current folder].
+    #[arg(long = "scene", value_name = "PATH")]
+    pub scenes: Vec<PathBuf>,
+    /// Image size of every render.
+    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = parse_size)]
+    pub size: ImageSize,
+    /// Timed runs per setting (the median is reported).
+    #[arg(long, value_name = "N", default_value_t = 3,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// The Markdown report; the SVG plot goes next to it (same name, `.svg`).
+    #[arg(long, value_name = "FILE", default_value = "docs/accuracy.md")]
+    pub out: PathBuf,
+    /// Sweep fewer values of each knob (for tests and a first look).
+    #[arg(long)]
+    pub quick: bool,
+}
+
+impl BenchArgs {
+    /// The options of the core figures.
+    pub fn options(&self) -> BenchOptions {
+        BenchOptions {
+            triangles: self.triangles,
+            size: self.size,
+            runs: self.runs as usize,
+            octree: OctreeParams {
+                max_depth: self.octree_depth,
+                max_leaf_triangles: self.octree_leaf,
+            },
+        }
+    }
+}
+
+impl ScalingArgs {
+    /// The options of the scaling benchmark.
+    pub fn options(&self) -> ScalingOptions {
+        ScalingOptions {
+            width: self.width,
+            height: self.height,
+            runs: self.runs,
+            max_real: self.max_real,
+            up_to: self.up_to,
+            window: self.window,
+            no_tcp: self.no_tcp,
+        }
+    }
+}
+
+impl AccuracyArgs {
+    /// The options of the accuracy study.
+    pub fn options(&self) -> AccuracyOptions {
+        AccuracyOptions {
+            scenes: self.scenes.clone(),
+            size: self.size,
+            runs: self.runs,
+            out: self.out.clone(),
+            quick: self.quick,
+        }
+    }
+}
+
+/// Runs `strahl bench` (the core figures, printed on stdout) or the benchmark it names.
 ///
 /// # Errors
-/// Whatever the benchmark reports.
+/// If the generated scene cannot be built, or the chosen benchmark fails.
 pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
-    crate::bench::run_command(args)
+    match &args.command {
+        Some(BenchCommand::Scaling(a)) => scaling::run(&a.options()),
+        Some(BenchCommand::Accuracy(a)) => accuracy::run(&a.options()),
+        None => {
+            let report = speed::run(&args.options())
+                .map_err(|e| anyhow::anyhow!("generated benchmark scene: {e}"))?;
+            writeln!(std::io::stdout().lock(), "{report}")?;
+            Ok(())
+        }
+    }
 }

@@ -6,7 +6,7 @@ use super::metrics::{psnr, rmse, ssim, through_8_bits, to_colors, Colors};
 use super::plan::{plan, Planned};
 use super::wire::wire_bytes;
 use super::{
-    residual_probe_samples, AccuracyArgs, Config, Errors, Measured, RefKind, Reference, Row,
+    residual_probe_samples, AccuracyOptions, Config, Errors, Measured, RefKind, Reference, Row,
     SceneRun, MIN_RUN, OCCLUSION_REFERENCE_SAMPLES, REFERENCE_DEPTH, REFERENCE_SAMPLES,
 };
 use crate::bench::stats::median;
@@ -329,7 +329,7 @@ fn settle_times(
 pub(super) fn run_scene(
     name: &str,
     desc: &SceneDesc,
-    args: &AccuracyArgs,
+    args: &AccuracyOptions,
     cores: usize,
     scene_index: usize,
     rows: &mut Vec<Row>,

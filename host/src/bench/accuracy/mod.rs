@@ -140,25 +140,18 @@ pub fn parse_size(s: &str) -> Result<ImageSize, String> {
     })
 }
 
-/// Arguments of `strahl bench accuracy`.
-#[derive(Debug, clap::Args)]
-pub struct AccuracyArgs {
-    /// A scene to measure (repeatable) [default: scenes/room/raytracer.cfg and the first two
-    /// scenes/fart/*.fart that load, mirrors.fart and glass.fart first; from the current folder].
-    #[arg(long = "scene", value_name = "PATH")]
+/// What `strahl bench accuracy` measures (its command line is `cli::bench::AccuracyOptions`).
+#[derive(Clone, Debug)]
+pub struct AccuracyOptions {
+    /// The scenes to measure; empty: the room and the first two FART scenes that load.
     pub scenes: Vec<PathBuf>,
     /// Image size of every render.
-    #[arg(long, value_name = "WxH", default_value = "320x240", value_parser = parse_size)]
     pub size: ImageSize,
     /// Timed runs per setting (the median is reported).
-    #[arg(long, value_name = "N", default_value_t = 3,
-          value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
     /// The Markdown report; the SVG plot goes next to it (same name, `.svg`).
-    #[arg(long, value_name = "FILE", default_value = "docs/accuracy.md")]
     pub out: PathBuf,
-    /// Sweep fewer values of each knob (for tests and a first look).
-    #[arg(long)]
+    /// Sweep fewer values of each knob.
     pub quick: bool,
 }
 
@@ -388,7 +381,7 @@ impl SceneRun {
 
 /// The scenes to measure, each with whether it must load: the ones given, or the demo room and
 /// every `scenes/fart/*.fart`, preferred ones first (the first two that load are used).
-fn scene_list(args: &AccuracyArgs) -> anyhow::Result<Vec<(PathBuf, bool)>> {
+fn scene_list(args: &AccuracyOptions) -> anyhow::Result<Vec<(PathBuf, bool)>> {
     if !args.scenes.is_empty() {
         return Ok(args.scenes.iter().map(|p| (p.clone(), true)).collect());
     }
@@ -437,7 +430,7 @@ fn load(path: &Path, size: ImageSize) -> anyhow::Result<SceneDesc> {
 /// A scene that cannot be loaded (naming the file; default `.fart` scenes that fail are skipped
 /// with a note), a render failure, an octree setting that changes a pixel, or a report that
 /// cannot be written (naming the file).
-pub fn run(args: &AccuracyArgs) -> anyhow::Result<()> {
+pub fn run(args: &AccuracyOptions) -> anyhow::Result<()> {
     let start = Instant::now();
     let load_start = load_average();
     let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get);
@@ -517,7 +510,7 @@ struct Sweeps {
 /// two optional ones that load.
 fn run_scenes(
     list: Vec<(PathBuf, bool)>,
-    args: &AccuracyArgs,
+    args: &AccuracyOptions,
     cores: usize,
 ) -> anyhow::Result<Sweeps> {
     let mut skipped = Vec::new();

@@ -13,7 +13,7 @@ use super::metrics::pareto_front;
 use super::plan::Setting;
 use super::wire::{fmt_bytes, serial_seconds, PIXEL_WIRE_BYTES_8};
 use super::{
-    residual_probe_samples, AccuracyArgs, Knob, RefKind, Row, SceneRun, MIN_RUN,
+    residual_probe_samples, AccuracyOptions, Knob, RefKind, Row, SceneRun, MIN_RUN,
     OCCLUSION_REFERENCE_SAMPLES, REFERENCE_DEPTH, REFERENCE_SAMPLES,
 };
 use std::fmt::Write as _;
@@ -661,7 +661,7 @@ pub(super) fn command_line() -> String {
 #[allow(clippy::too_many_arguments)]
 /// The Markdown report.
 pub(super) fn report(
-    args: &AccuracyArgs,
+    args: &AccuracyOptions,
     scenes: &[SceneRun],
     skipped: &[String],
     rows: &[Row],
@@ -682,7 +682,7 @@ pub(super) fn report(
 /// The title and how the run was made: command, machine, image size, runs, skipped scenes.
 fn intro(
     md: &mut String,
-    args: &AccuracyArgs,
+    args: &AccuracyOptions,
     skipped: &[String],
     cores: usize,
     total: Duration,
