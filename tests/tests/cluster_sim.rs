@@ -1083,7 +1083,7 @@ fn worker_joins_a_master_with_none() {
     );
     assert_same_image(&image, &want, "a joined worker");
     assert_eq!(image.workers.len(), 1);
-    assert_eq!(image.workers[0].address, "local 1");
+    assert_eq!(image.workers[0].address, "local-1");
     assert_eq!(image.workers[0].lines, want.height);
     assert!(image.workers[0].lost.is_none());
 }

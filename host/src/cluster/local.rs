@@ -17,7 +17,8 @@ use strahl_core::worker::{serve, NodeInfo, SceneCache};
 pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
 
 /// Starts `count` worker threads, each with a copy of `cache`, and returns the master's links to
-/// them (named `local 1`, `local 2`, ...).
+/// them, named `local-1`, `local-2`, ...: the names the workers give in their `Hello`, so the
+/// worker table reads the same whether or not a worker was greeted before the render ended.
 ///
 /// # Errors
 /// If a thread cannot be started.
@@ -29,7 +30,7 @@ pub fn spawn_local_workers(count: usize, cache: &SceneCache) -> std::io::Result<
             std::thread::Builder::new()
                 .name(format!("strahl-local-{i}"))
                 .spawn(move || run_local_worker(i, worker_end, cache))?;
-            Ok(Link::from_pipe(format!("local {i}"), master_end))
+            Ok(Link::from_pipe(format!("local-{i}"), master_end))
         })
         .collect()
 }
