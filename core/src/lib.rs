@@ -3,8 +3,8 @@
 //! The crate is `#![no_std]` (it uses `alloc`) so the same code renders on a laptop, a cluster node
 //! and a microcontroller on a serial link. It touches no files, sockets, threads or clocks.
 //!
-//! It reads in layers, bottom up; each uses only the layers listed before it (a CI step,
-//! `.ci/layers`, fails when a module imports from a later layer):
+//! It reads in layers, bottom up; each uses only the layers listed before it (a test,
+//! `tests/tests/layers.rs`, fails when a module imports from a later layer):
 //! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
 //! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule.
 //! 3. [`accel`]: the arena octree over triangles and bounded solids.
