@@ -96,6 +96,56 @@ impl Scene {
         best.map(|(_, h)| h)
     }
 
+    /// True if primitive `i` blocks `ray` provably before `t_max`: `0 < t` and
+    /// `t + t_error < t_max`.
+    #[inline]
+    fn blocks(
+        &self,
+        frame: &RayFrame,
+        ray: &Ray,
+        i: u32,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> bool {
+        self.test_primitive(frame, ray, i, t_max, scratch)
+            .is_some_and(|h| h.t() + h.t_error() < t_max)
+    }
+
+    /// [`Scene::any_hit`] for a shadow ray, trying `last` first: the primitive that blocked the
+    /// previous shadow ray towards the same light (POV-Ray's light buffer). Neighbouring pixels
+    /// are mostly shadowed by the same object, so one test often settles the query. The answer
+    /// is `any_hit`'s whatever `last` holds: a primitive that blocks the ray is found by the
+    /// walk too, and `last` only decides which is tried first. `last` becomes the blocker the
+    /// walk found, and keeps its old value when nothing blocks.
+    pub fn shadowed(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+        last: &mut Option<u32>,
+    ) -> bool {
+        let frame = RayFrame::new(ray);
+        if let Some(i) = *last {
+            if self.blocks(&frame, ray, i, t_max, scratch) {
+                return true;
+            }
+        }
+        let mut blocker = None;
+        let mut test = |i: u32| {
+            let hit = self.blocks(&frame, ray, i, t_max, scratch);
+            if hit {
+                blocker = Some(i);
+            }
+            hit
+        };
+        let found = self.octree.any_hit_with(ray, t_max, &mut test)
+            || self.unbounded.iter().any(|&j| test(self.solid_index(j)));
+        if blocker.is_some() {
+            *last = blocker;
+        }
+        found
+    }
+
     /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
     /// `t + t_error < t_max` (shadow and occlusion rays).
     pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut SpanScratch) -> bool {

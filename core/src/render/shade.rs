@@ -113,6 +113,8 @@ struct Pending {
 pub struct TraceScratch {
     spans: SpanScratch,
     pending: Vec<Pending>,
+    /// Per light, the primitive that blocked its last shadow ray (see [`Scene::shadowed`]).
+    blockers: Vec<Option<u32>>,
 }
 
 /// The surface at a hit, oriented towards the incoming ray.
@@ -214,6 +216,7 @@ fn local_color(
     view: Vec3,
     seed: u32,
     spans: &mut SpanScratch,
+    blockers: &mut [Option<u32>],
     counts: &mut RayCounts,
 ) -> Vec3 {
     let sh = &scene.shaders[s.shader];
@@ -223,7 +226,7 @@ fn local_color(
     if settings.ambient_occlusion > 0 && (occlusion_matters(settings, sh) || naive) {
         color *= ambient_visibility(scene, s, seed, spans, counts);
     }
-    for light in &scene.lights {
+    for (light, last_blocker) in scene.lights.iter().zip(blockers.iter_mut()) {
         let to_light = light.position - s.point;
         let dist = to_light.length();
         if dist == 0.0 {
@@ -249,7 +252,7 @@ fn local_color(
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
-            if scene.any_hit(&shadow, SHADOW_T_MAX, spans) {
+            if scene.shadowed(&shadow, SHADOW_T_MAX, spans, last_blocker) {
                 continue;
             }
         }
@@ -311,6 +314,7 @@ pub fn trace(
         depth: 0,
         media: Media::OUTSIDE,
     });
+    scratch.blockers.resize(scene.lights.len(), None);
     let mut bounce = 0u32;
     while let Some(p) = scratch.pending.pop() {
         let spans = &mut scratch.spans;
@@ -324,7 +328,8 @@ pub fn trace(
         let split = split(scene, &s, d, &p);
         let naive = !settings.skip_effects;
         if split.local_share > 0.0 || naive {
-            let local = local_color(scene, &s, view, mix(seed, bounce), spans, counts);
+            let blockers = &mut scratch.blockers;
+            let local = local_color(scene, &s, view, mix(seed, bounce), spans, blockers, counts);
             if split.local_share > 0.0 {
                 color += local * (split.local_share * p.weight);
             }

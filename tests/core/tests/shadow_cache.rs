@@ -1,0 +1,122 @@
+//! The shadow cache (`Scene::shadowed`, the last blocker per light) gives `Scene::any_hit`'s
+//! answer whatever blocker it remembers, and remembers the primitive that blocked.
+
+use glam::Vec3;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::prepared::SpanScratch;
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::ray::Ray;
+use strahl_core::math::transform::Transform;
+use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core_tests::meshes::random_soup;
+
+/// Balls, a triangle soup and a floor half-space: every kind of primitive `any_hit` walks.
+fn scene(rng: &mut Rng) -> Scene {
+    let soup = random_soup(300, rng);
+    let mut desc = SceneDesc {
+        shaders: vec![Shader::phong(
+            Vec3::splat(0.5),
+            Vec3::ZERO,
+            Vec3::ZERO,
+            1.0,
+            0.0,
+        )],
+        lights: vec![Light {
+            position: Vec3::new(0.0, 6.0, 0.0),
+            color: Vec3::ONE,
+            amount: 1.0,
+            casts_shadows: true,
+        }],
+        ..SceneDesc::default()
+    };
+    for tri in &soup {
+        let first = desc.points.len() as u32;
+        desc.points.extend_from_slice(tri);
+        desc.triangles
+            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
+    }
+    for _ in 0..200 {
+        let centre = Vec3::new(
+            rng.range(-2.0, 2.0),
+            rng.range(-2.0, 2.0),
+            rng.range(-2.0, 2.0),
+        );
+        desc.objects.push(desc.solids.len() as u32);
+        desc.solids.push(SolidNode::Leaf {
+            shape: Shape::Sphere {
+                radius: rng.range(0.02, 0.3),
+            },
+            transform: Transform::translate(centre),
+            shader: 0,
+        });
+    }
+    desc.objects.push(desc.solids.len() as u32);
+    desc.solids.push(SolidNode::Leaf {
+        shape: Shape::Plane {
+            normal: Vec3::Y,
+            d: -2.5,
+        },
+        transform: Transform::IDENTITY,
+        shader: 0,
+    });
+    Scene::build(&desc, &OctreeParams::default()).expect("valid scene")
+}
+
+#[test]
+fn shadowed_answers_as_any_hit_whatever_it_remembers() {
+    let mut rng = Rng::new(17);
+    let scene = scene(&mut rng);
+    let primitives = (scene.triangle_points.len() + scene.solids.len()) as u32;
+    let mut scratch = SpanScratch::default();
+    let mut last = None;
+    let (mut blocked, mut free, mut remembered_hits) = (0, 0, 0);
+    for k in 0..20_000 {
+        // Shadow rays (t from 0 to 1) between two points of the cloud, so that remembered
+        // primitives lie before, on and beyond the light.
+        let origin = Vec3::new(
+            rng.range(-2.5, 2.5),
+            rng.range(-2.5, 2.5),
+            rng.range(-2.5, 2.5),
+        );
+        let light = Vec3::new(
+            rng.range(-2.5, 2.5),
+            rng.range(-2.5, 2.5),
+            rng.range(-2.5, 2.5),
+        );
+        let ray = Ray::new(origin, light - origin);
+        let want = scene.any_hit(&ray, 1.0, &mut scratch);
+        // Every third ray starts from an unrelated remembered primitive.
+        if k % 3 == 0 {
+            last = Some(rng.next_u64() as u32 % primitives);
+        }
+        let before = last;
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, &mut last);
+        assert_eq!(got, want, "ray {k}: {ray:?}, remembered {before:?}");
+        if want {
+            blocked += 1;
+            let b = last.expect("a blocked ray leaves its blocker");
+            // What it remembers really blocks this ray.
+            assert!(
+                scene.shadowed(&ray, 1.0, &mut scratch, &mut Some(b)),
+                "ray {k}: remembered {b} does not block"
+            );
+            remembered_hits += u32::from(before == last);
+        } else {
+            free += 1;
+            assert_eq!(
+                last, before,
+                "ray {k}: an unblocked ray keeps what was remembered"
+            );
+        }
+    }
+    // The rays cover both answers, and the cache is really used (a blocker found again).
+    assert!(
+        blocked > 1000 && free > 1000,
+        "{blocked} blocked, {free} free"
+    );
+    assert!(
+        remembered_hits > 20,
+        "{remembered_hits} rays settled by the remembered blocker"
+    );
+}
