@@ -17,6 +17,31 @@ use glam::Vec3;
 /// Each level pushes at most four cells and pops one.
 const STACK_SIZE: usize = 3 * MAX_DEPTH_LIMIT as usize + 2;
 
+/// The primitives one query has tested lately, direct-mapped by index. A primitive filed in
+/// several cells the ray crosses is then tested once instead of once per cell, as long as no
+/// other primitive took its slot in between. Skipping a repeat changes no answer: a test's hit
+/// does not depend on the bound it is given, only whether it is reported (see
+/// [`Octree::closest_hit_with`]), so a repeat could only report the same hit again or nothing.
+struct Mailbox([u32; MAILBOX_SLOTS]);
+
+const MAILBOX_SLOTS: usize = 16;
+
+impl Mailbox {
+    fn new() -> Self {
+        // No primitive has index u32::MAX (indices count triangles and solids, both below it).
+        Mailbox([u32::MAX; MAILBOX_SLOTS])
+    }
+
+    /// True the first time `i` is seen since its slot last held another primitive.
+    #[inline(always)]
+    fn first_visit(&mut self, i: u32) -> bool {
+        let slot = &mut self.0[i as usize % MAILBOX_SLOTS];
+        let first = *slot != i;
+        *slot = i;
+        first
+    }
+}
+
 #[derive(Clone, Copy)]
 struct Entry {
     node: u32,
@@ -49,8 +74,12 @@ impl Octree {
         // Tests are bounded by the best hit so far, loosened by four roundings so that only hits
         // that lose the comparison anyway are cut early (the winner stays exact).
         let mut bound = t_max;
+        let mut mailbox = Mailbox::new();
         self.walk(ray, t_max, |indices| {
             for &i in indices {
+                if !mailbox.first_visit(i) {
+                    continue;
+                }
                 if let Some(h) = test(i, bound) {
                     if closer(h.t(), i, &best) {
                         best = Some((i, h));
@@ -82,8 +111,9 @@ impl Octree {
     /// `t_max`. Stops at the first.
     pub fn any_hit_with(&self, ray: &Ray, t_max: f32, mut test: impl FnMut(u32) -> bool) -> bool {
         let mut found = false;
+        let mut mailbox = Mailbox::new();
         self.walk(ray, t_max, |indices| {
-            found = indices.iter().any(|&i| test(i));
+            found = indices.iter().any(|&i| mailbox.first_visit(i) && test(i));
             if found {
                 f32::NEG_INFINITY
             } else {
