@@ -153,13 +153,8 @@ impl Scene {
             return self.octree.any_hit(&self.triangle_points, ray, t_max);
         }
         let frame = RayFrame::new(ray);
-        self.octree.any_hit_with(ray, t_max, |i| {
-            self.test_primitive(&frame, ray, i, t_max, scratch)
-                .is_some_and(|h| h.t() + h.t_error() < t_max)
-        }) || self.unbounded.iter().any(|&j| {
-            self.solids
-                .first_hit(j, ray, t_max, scratch)
-                .is_some_and(|h| h.t + h.t_error < t_max)
-        })
+        let mut test = |i: u32| self.blocks(&frame, ray, i, t_max, scratch);
+        self.octree.any_hit_with(ray, t_max, &mut test)
+            || self.unbounded.iter().any(|&j| test(self.solid_index(j)))
     }
 }

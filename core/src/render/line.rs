@@ -79,7 +79,10 @@ pub(crate) fn supersample(
 }
 
 /// The colour of the ray through the centre of pixel `(x, y)`: adaptive multisampling's first
-/// pass (its occlusion pattern is sample `m²`, after the grid's).
+/// pass (its occlusion pattern is sample `m²`, after the grid's). It repeats the setup of
+/// [`supersample`] (pattern count, pixel seed) on purpose: a shared helper would need the
+/// sample's offset and pattern index passed in, and would hide that the two passes use
+/// different patterns.
 fn centre(
     scene: &Scene,
     x: u32,
