@@ -125,7 +125,9 @@ impl Scene {
         last: &mut Option<u32>,
     ) -> bool {
         let frame = RayFrame::new(ray);
-        if let Some(i) = *last {
+        // A scratch carried over from another scene may remember an index this one lacks.
+        let primitives = self.solid_index(self.solids.len() as u32);
+        if let Some(i) = last.filter(|&i| i < primitives) {
             if self.blocks(&frame, ray, i, t_max, scratch) {
                 return true;
             }

@@ -86,9 +86,13 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         );
         let ray = Ray::new(origin, light - origin);
         let want = scene.any_hit(&ray, 1.0, &mut scratch);
-        // Every third ray starts from an unrelated remembered primitive.
+        // Every third ray starts from an unrelated remembered primitive, every 100th from an
+        // index no primitive of this scene has (a scratch carried over from a larger scene).
         if k % 3 == 0 {
             last = Some(rng.next_u64() as u32 % primitives);
+        }
+        if k % 100 == 1 {
+            last = Some(primitives + k);
         }
         let before = last;
         let got = scene.shadowed(&ray, 1.0, &mut scratch, &mut last);
