@@ -252,3 +252,39 @@ fn one_worker_delivers_every_line_and_every_ray() -> TestResult {
     }
     Ok(())
 }
+
+#[test]
+fn work_counts_are_the_same_for_any_worker_count_and_match_their_per_ray_figures() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (_, one) = render_with_stats(dir.path(), "one", &["--workers", "1"])?;
+    let (_, two) = render_with_stats(dir.path(), "two", &["--workers", "2"])?;
+    let work = &one["work"];
+    let tests = uint(work, &["intersection_tests"]);
+    let cells = uint(work, &["octree_cells"]);
+    // Every primary ray of the closed room enters the octree and tests something.
+    assert!(tests >= WIDTH * HEIGHT, "{work:#}");
+    assert!(cells >= WIDTH * HEIGHT, "{work:#}");
+    // The counts travel with each line, so they add up to the same whoever rendered it.
+    assert_eq!(work, &two["work"], "work with 1 and 2 workers");
+    let total = uint(&one["rays"], &["total"]) as f64;
+    // JSON's decimal text may round the last bit of an f64.
+    let close = |key: &str, want: f64| {
+        let got = work[key].as_f64().unwrap_or(f64::NAN);
+        assert!(
+            (got - want).abs() <= 1e-12 * want,
+            "{key}: {got} against {want}"
+        );
+    };
+    close("tests_per_ray", tests as f64 / total);
+    close("cells_per_ray", cells as f64 / total);
+    // The octree's figures come with them.
+    let octree = &one["octree"];
+    assert!(uint(octree, &["nodes"]) >= 1, "{octree:#}");
+    let per_primitive = uint(octree, &["bytes"]) as f64 / uint(&one, &["triangles"]) as f64;
+    let got = octree["bytes_per_primitive"].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        (got - per_primitive).abs() <= 1e-6 * per_primitive,
+        "{octree:#}"
+    );
+    Ok(())
+}

@@ -16,7 +16,6 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use strahl_core::accel::octree::{brute_force_closest_hit, Hit, Octree, OctreeParams};
 use strahl_core::geom::hit::RayHit;
-use strahl_core::geom::solid::prepared::SpanScratch;
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_core::math::aabb::Aabb;
@@ -24,6 +23,7 @@ use strahl_core::math::float::{next_float_down, next_float_up};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::render::optics::reflect;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
@@ -747,7 +747,7 @@ fn closed_mesh_has_no_leaks_through_shared_edges_and_vertices() {
                 );
                 let scene = Scene::build(&desc, &params).expect("valid scene");
                 let img = render(&scene);
-                let mut scratch = SpanScratch::default();
+                let mut scratch = QueryScratch::default();
                 for (i, &(c, on_edge)) in covers.iter().enumerate() {
                     let (x, y) = (i % W as usize, i / W as usize);
                     let ray = pixel_ray(&scene, x, y);
@@ -830,7 +830,7 @@ fn grazing_rays_parallel_to_a_triangle() {
         )
     };
     let scene = build(&desc);
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     let mut rng = Rng::new(7);
     let tiny = f32::from_bits(1); // the smallest subnormal
     let heights = [
@@ -1667,7 +1667,7 @@ fn camera_inside_a_closed_object() {
                 desc.camera = eye(e, 10.0, 1.0);
                 let scene = build(desc);
                 let img = render(&scene);
-                let mut scratch = SpanScratch::default();
+                let mut scratch = QueryScratch::default();
                 let mut lit = 0;
                 for y in 0..18 {
                     for x in 0..24 {
@@ -2571,7 +2571,7 @@ fn hit_points_case(c: &Placed) -> Result<(bool, bool), TestCaseError> {
 
     // A solid (ball, turned box or half-space) at the same scale and place.
     let (node, scene, ray) = c.solid(3);
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     if let Some(PrimitiveHit::Solid(j, h)) = scene.closest_hit(&ray, f32::INFINITY, &mut scratch) {
         prop_assert_eq!(j, 0);
         let surface = scene.solids.surface(&ray, &h);
@@ -2689,7 +2689,7 @@ fn reflection_case(c: &Placed) -> Result<(bool, bool), TestCaseError> {
     // Convex solids (ball, turned box) hit from outside: the mirror ray's origin is outside and
     // the ray never meets the solid again.
     let (node, scene, ray) = c.solid(2);
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     if let Some(PrimitiveHit::Solid(_, h)) = scene.closest_hit(&ray, f32::INFINITY, &mut scratch) {
         let surface = scene.solids.surface(&ray, &h);
         let n = if surface.normal.dot(ray.dir) > 0.0 {

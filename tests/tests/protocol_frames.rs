@@ -11,6 +11,7 @@
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
+use strahl_core::accel::work::QueryWork;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, SeedCamera};
@@ -387,6 +388,10 @@ fn largest_line_result_fits_max_frame_len() {
             reflection: u64::MAX,
             refraction: u64::MAX,
             occlusion: u64::MAX,
+            work: QueryWork {
+                intersection_tests: u64::MAX,
+                octree_cells: u64::MAX,
+            },
         },
         pixels: &pixels,
     };

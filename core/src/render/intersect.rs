@@ -3,7 +3,10 @@
 //!
 //! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
 //! smallest primitive index (triangles first, then solids), so every machine picks the same one.
+//! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
+//! [`QueryWork`].
 
+use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, RayHit};
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
 use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
@@ -17,6 +20,15 @@ pub enum PrimitiveHit {
     Triangle(u32, TriangleHit),
     /// A solid object (index into the scene's objects).
     Solid(u32, SolidHit),
+}
+
+/// What one tracer's ray queries reuse and count: the solids' span buffers and the work done.
+#[derive(Clone, Debug, Default)]
+pub struct QueryScratch {
+    /// Buffers of the solids' span evaluation.
+    pub spans: SpanScratch,
+    /// Cells entered and primitives tested so far.
+    pub work: QueryWork,
 }
 
 impl RayHit for PrimitiveHit {
@@ -51,7 +63,7 @@ impl Scene {
         ray: &Ray,
         i: u32,
         t_max: f32,
-        scratch: &mut SpanScratch,
+        spans: &mut SpanScratch,
     ) -> Option<PrimitiveHit> {
         let n = self.triangle_points.len() as u32;
         if i < n {
@@ -59,7 +71,7 @@ impl Scene {
                 .map(|h| PrimitiveHit::Triangle(i, h))
         } else {
             self.solids
-                .first_hit(i - n, ray, t_max, scratch)
+                .first_hit(i - n, ray, t_max, spans)
                 .map(|h| PrimitiveHit::Solid(i - n, h))
         }
     }
@@ -69,25 +81,31 @@ impl Scene {
         &self,
         ray: &Ray,
         t_max: f32,
-        scratch: &mut SpanScratch,
+        scratch: &mut QueryScratch,
     ) -> Option<PrimitiveHit> {
+        let frame = RayFrame::new(ray);
+        let work = &mut scratch.work;
         if self.solids.is_empty() {
-            // Triangles only (the seed's scenes): the octree's own triangle query.
+            // Triangles only (the seed's scenes): no solid to dispatch to.
+            let triangles = &self.triangle_points;
             return self
                 .octree
-                .closest_hit(&self.triangle_points, ray, t_max)
-                .map(|h| PrimitiveHit::Triangle(h.triangle, h.tri));
+                .closest_hit_with(ray, t_max, work, |i, bound| {
+                    intersect(&frame, &triangles[i as usize], bound)
+                })
+                .map(|(i, h)| PrimitiveHit::Triangle(i, h));
         }
-        let frame = RayFrame::new(ray);
-        let mut best = self.octree.closest_hit_with(ray, t_max, |i, bound| {
-            self.test_primitive(&frame, ray, i, bound, scratch)
+        let spans = &mut scratch.spans;
+        let mut best = self.octree.closest_hit_with(ray, t_max, work, |i, bound| {
+            self.test_primitive(&frame, ray, i, bound, spans)
         });
+        work.intersection_tests += self.unbounded.len() as u64;
         for &j in &self.unbounded {
             let bound = best.map_or(t_max, |(_, h)| {
                 h.t().min(t_max) * (1.0 + 4.0 * crate::math::float::MACHINE_EPSILON)
             });
             let i = self.solid_index(j);
-            if let Some(h) = self.solids.first_hit(j, ray, bound.min(t_max), scratch) {
+            if let Some(h) = self.solids.first_hit(j, ray, bound.min(t_max), spans) {
                 if closer(h.t, i, &best) {
                     best = Some((i, PrimitiveHit::Solid(j, h)));
                 }
@@ -105,9 +123,9 @@ impl Scene {
         ray: &Ray,
         i: u32,
         t_max: f32,
-        scratch: &mut SpanScratch,
+        spans: &mut SpanScratch,
     ) -> bool {
-        self.test_primitive(frame, ray, i, t_max, scratch)
+        self.test_primitive(frame, ray, i, t_max, spans)
             .is_some_and(|h| h.t() + h.t_error() < t_max)
     }
 
@@ -121,27 +139,29 @@ impl Scene {
         &self,
         ray: &Ray,
         t_max: f32,
-        scratch: &mut SpanScratch,
+        scratch: &mut QueryScratch,
         last: &mut Option<u32>,
     ) -> bool {
         let frame = RayFrame::new(ray);
+        let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         // A scratch carried over from another scene may remember an index this one lacks.
         let primitives = self.solid_index(self.solids.len() as u32);
         if let Some(i) = last.filter(|&i| i < primitives) {
-            if self.blocks(&frame, ray, i, t_max, scratch) {
+            work.intersection_tests += 1;
+            if self.blocks(&frame, ray, i, t_max, spans) {
                 return true;
             }
         }
         let mut blocker = None;
         let mut test = |i: u32| {
-            let hit = self.blocks(&frame, ray, i, t_max, scratch);
+            let hit = self.blocks(&frame, ray, i, t_max, spans);
             if hit {
                 blocker = Some(i);
             }
             hit
         };
-        let found = self.octree.any_hit_with(ray, t_max, &mut test)
-            || self.unbounded.iter().any(|&j| test(self.solid_index(j)));
+        let found = self.octree.any_hit_with(ray, t_max, work, &mut test)
+            || self.unbounded_block(work, &mut test);
         if blocker.is_some() {
             *last = blocker;
         }
@@ -150,13 +170,27 @@ impl Scene {
 
     /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
     /// `t + t_error < t_max` (shadow and occlusion rays).
-    pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut SpanScratch) -> bool {
-        if self.solids.is_empty() {
-            return self.octree.any_hit(&self.triangle_points, ray, t_max);
-        }
+    pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut QueryScratch) -> bool {
         let frame = RayFrame::new(ray);
-        let mut test = |i: u32| self.blocks(&frame, ray, i, t_max, scratch);
-        self.octree.any_hit_with(ray, t_max, &mut test)
-            || self.unbounded.iter().any(|&j| test(self.solid_index(j)))
+        let (spans, work) = (&mut scratch.spans, &mut scratch.work);
+        if self.solids.is_empty() {
+            let triangles = &self.triangle_points;
+            return self.octree.any_hit_with(ray, t_max, work, |i| {
+                intersect(&frame, &triangles[i as usize], t_max)
+                    .is_some_and(|h| h.t + h.t_error < t_max)
+            });
+        }
+        let mut test = |i: u32| self.blocks(&frame, ray, i, t_max, spans);
+        self.octree.any_hit_with(ray, t_max, work, &mut test)
+            || self.unbounded_block(work, &mut test)
+    }
+
+    /// True if `blocks` holds for an unbounded solid (tested in order, up to the first that
+    /// does); counts the tests in `work`.
+    fn unbounded_block(&self, work: &mut QueryWork, blocks: &mut impl FnMut(u32) -> bool) -> bool {
+        self.unbounded.iter().any(|&j| {
+            work.intersection_tests += 1;
+            blocks(self.solid_index(j))
+        })
     }
 }

@@ -21,10 +21,9 @@
 //! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
 //! nested transparent objects), so leaving an inner object returns to the outer one's index.
 
-use crate::geom::solid::prepared::SpanScratch;
 use crate::geom::triangle::{hit_point, unit_normal};
 use crate::math::ray::{offset_ray_origin, Ray};
-use crate::render::intersect::PrimitiveHit;
+use crate::render::intersect::{PrimitiveHit, QueryScratch};
 use crate::render::optics::{reflect, refract};
 use crate::render::sampling::{hemisphere, mix};
 use crate::render::stats::RayCounts;
@@ -111,7 +110,7 @@ struct Pending {
 /// Buffers a tracer reuses from ray to ray (one per render thread).
 #[derive(Clone, Debug, Default)]
 pub struct TraceScratch {
-    spans: SpanScratch,
+    query: QueryScratch,
     pending: Vec<Pending>,
     /// Per light, the primitive that blocked its last shadow ray (see [`Scene::shadowed`]).
     blockers: Vec<Option<u32>>,
@@ -188,7 +187,7 @@ fn ambient_visibility(
     scene: &Scene,
     s: &Surface,
     seed: u32,
-    spans: &mut SpanScratch,
+    spans: &mut QueryScratch,
     counts: &mut RayCounts,
 ) -> f32 {
     let n = scene.settings.ambient_occlusion;
@@ -215,7 +214,7 @@ fn local_color(
     s: &Surface,
     view: Vec3,
     seed: u32,
-    spans: &mut SpanScratch,
+    spans: &mut QueryScratch,
     blockers: &mut [Option<u32>],
     counts: &mut RayCounts,
 ) -> Vec3 {
@@ -317,7 +316,7 @@ pub fn trace(
     scratch.blockers.resize(scene.lights.len(), None);
     let mut bounce = 0u32;
     while let Some(p) = scratch.pending.pop() {
-        let spans = &mut scratch.spans;
+        let spans = &mut scratch.query;
         let Some(hit) = scene.closest_hit(&p.ray, f32::INFINITY, spans) else {
             color += settings.background * p.weight;
             continue;
@@ -340,6 +339,7 @@ pub fn trace(
         }
         push_branches(&s, d, &p, split, &mut scratch.pending, counts);
     }
+    counts.work += core::mem::take(&mut scratch.query.work);
     color
 }
 
@@ -379,7 +379,7 @@ fn trace_dropped_branches(
     d: Vec3,
     p: &Pending,
     split: &Split,
-    spans: &mut SpanScratch,
+    spans: &mut QueryScratch,
     counts: &mut RayCounts,
 ) {
     if split.mirror_share == 0.0 {

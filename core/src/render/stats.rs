@@ -1,6 +1,8 @@
-//! Ray statistics: how many rays of each kind a render traced.
+//! Ray statistics: how many rays of each kind a render traced, and the work they cost.
 
-/// Rays traced, by kind.
+use crate::accel::work::QueryWork;
+
+/// Rays traced, by kind, and the octree cells and intersection tests they cost.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
     /// Rays from the camera, one per pixel.
@@ -15,6 +17,9 @@ pub struct RayCounts {
     pub refraction: u64,
     /// Ambient-occlusion rays.
     pub occlusion: u64,
+    /// Cells entered and primitives tested by all these rays (not rays: left out of
+    /// [`RayCounts::total`]).
+    pub work: QueryWork,
 }
 
 impl RayCounts {
@@ -37,5 +42,6 @@ impl core::ops::AddAssign for RayCounts {
         self.reflection += o.reflection;
         self.refraction += o.refraction;
         self.occlusion += o.occlusion;
+        self.work += o.work;
     }
 }

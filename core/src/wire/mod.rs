@@ -29,7 +29,7 @@ pub mod scene_blob;
 /// talk: the worker answers with its own `Hello` (so the master can report both versions) and
 /// ends the session. `Hello` stays the first variant of both message enums, with the version as
 /// its first field, in every version.
-pub const PROTOCOL_VERSION: u32 = 4;
+pub const PROTOCOL_VERSION: u32 = 5;
 
 /// The widest image line a line result carries, in pixels (the scene's own limit).
 pub const MAX_WIDTH: u32 = crate::scene::MAX_IMAGE_SIDE;
@@ -53,7 +53,7 @@ pub const MAX_SCENE_LEN: u32 = 1 << 30;
 
 /// An upper bound on a message's encoding besides its one variable byte field (pixels, chunk or
 /// names); the largest messages are checked against it in tests.
-pub const MAX_HEADER_LEN: usize = 96;
+pub const MAX_HEADER_LEN: usize = 128;
 
 /// Bytes of the CRC-32 that follows each payload.
 pub const CRC_LEN: usize = 4;

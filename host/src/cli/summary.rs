@@ -107,6 +107,10 @@ pub struct RenderStats {
     pub effects: strahl_core::scene::effects::Effects,
     /// Rays by kind, and their sum.
     pub rays: StatsRays,
+    /// The work behind the rays: tests and cells, in all and per ray.
+    pub work: StatsWork,
+    /// The octree's build figures.
+    pub octree: StatsOctree,
     /// One entry per worker.
     pub workers: Vec<StatsWorker>,
     /// The image file written.
@@ -134,6 +138,67 @@ pub struct StatsRays {
     pub kinds: RayCounts,
     /// All rays.
     pub total: u64,
+}
+
+/// The octree cells entered and intersection tests made, in all and per ray traced.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct StatsWork {
+    /// Ray–primitive intersection tests.
+    pub intersection_tests: u64,
+    /// Octree cells entered.
+    pub octree_cells: u64,
+    /// Intersection tests per ray traced (0 without rays).
+    pub tests_per_ray: f64,
+    /// Octree cells entered per ray traced (0 without rays).
+    pub cells_per_ray: f64,
+}
+
+impl StatsWork {
+    fn new(rays: &RayCounts) -> StatsWork {
+        let per_ray = |n: u64| match rays.total() {
+            0 => 0.0,
+            total => n as f64 / total as f64,
+        };
+        StatsWork {
+            intersection_tests: rays.work.intersection_tests,
+            octree_cells: rays.work.octree_cells,
+            tests_per_ray: per_ray(rays.work.intersection_tests),
+            cells_per_ray: per_ray(rays.work.octree_cells),
+        }
+    }
+}
+
+/// The octree's build figures in [`RenderStats`].
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct StatsOctree {
+    /// Nodes, interior and leaf.
+    pub nodes: u32,
+    /// Leaves.
+    pub leaves: u32,
+    /// Leaves without a primitive.
+    pub empty_leaves: u32,
+    /// Depth of the deepest leaf.
+    pub depth: u32,
+    /// Leaf entries (a primitive in several cells counts once per cell).
+    pub references: u32,
+    /// Bytes of nodes and leaf entries.
+    pub bytes: usize,
+    /// Those bytes per primitive given to the build.
+    pub bytes_per_primitive: f32,
+}
+
+impl From<&OctreeStats> for StatsOctree {
+    fn from(o: &OctreeStats) -> StatsOctree {
+        StatsOctree {
+            nodes: o.nodes,
+            leaves: o.leaves,
+            empty_leaves: o.empty_leaves,
+            depth: o.depth,
+            references: o.references,
+            bytes: o.bytes,
+            bytes_per_primitive: o.bytes_per_triangle(),
+        }
+    }
 }
 
 /// One worker's share in [`RenderStats`].
@@ -179,6 +244,8 @@ impl RenderStats {
                 kinds: summary.rays,
                 total: summary.rays.total(),
             },
+            work: StatsWork::new(&summary.rays),
+            octree: StatsOctree::from(&summary.octree),
             workers: workers
                 .iter()
                 .map(|w| StatsWorker {
@@ -223,6 +290,7 @@ mod tests {
                 refraction: 6,
                 occlusion: 7,
                 extra_samples: 8,
+                ..RayCounts::default()
             },
             workers: 2,
             output: PathBuf::from("output.bmp"),

@@ -3,9 +3,10 @@
 //! the closest solid hit of a ray with its surface. Each test file uses only some of them.
 
 use glam::Vec3;
-use strahl_core::geom::solid::prepared::{SolidHit, SolidSurface, SpanScratch};
+use strahl_core::geom::solid::prepared::{SolidHit, SolidSurface};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::render::sampling::{mix, pixel_seed};
@@ -96,7 +97,7 @@ pub struct Found {
 
 /// The closest solid hit of `ray` in `scene` (which must hold only solids), with its surface.
 pub fn closest(scene: &Scene, ray: &Ray) -> Option<Found> {
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     match scene.closest_hit(ray, f32::INFINITY, &mut scratch)? {
         PrimitiveHit::Solid(object, hit) => Some(Found {
             object,

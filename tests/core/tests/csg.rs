@@ -10,6 +10,7 @@ use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, Scene, SceneDesc, Shader};
 use strahl_core_tests::checked::*;
@@ -931,7 +932,7 @@ fn octree_over_many_solids_matches_brute_force() {
     let scene = scene(solids, objects, 3);
     assert!(!scene.unbounded.is_empty());
 
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     let mut hits = 0;
     for i in 0..20_000 {
         let origin = random_in(&mut rng, Vec3::splat(-15.0), Vec3::splat(15.0));
@@ -939,7 +940,10 @@ fn octree_over_many_solids_matches_brute_force() {
         let ray = Ray::new(origin, target - origin);
         let mut best: Option<(u32, SolidHit)> = None;
         for j in 0..n_objects {
-            if let Some(h) = scene.solids.first_hit(j, &ray, f32::INFINITY, &mut scratch) {
+            if let Some(h) = scene
+                .solids
+                .first_hit(j, &ray, f32::INFINITY, &mut scratch.spans)
+            {
                 if best.is_none_or(|(_, b)| h.t < b.t) {
                     best = Some((j, h));
                 }

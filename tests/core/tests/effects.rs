@@ -224,6 +224,7 @@ fn opaque_scene_traces_no_mirror_or_refraction_rays() {
             reflection: 0,
             refraction: 0,
             occlusion: 0,
+            work: c.work,
         }
     );
     // Skipping off: a mirror and a (straight-through, ior 1) refraction ray at every hit.

@@ -3,11 +3,12 @@
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
-use strahl_core::geom::solid::prepared::{SolidSurface, SpanScratch};
+use strahl_core::geom::solid::prepared::SolidSurface;
 use strahl_core::geom::solid::{CsgOp, Shape, SolidNode};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::PrimitiveHit;
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::render::optics::refract;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
@@ -117,7 +118,7 @@ struct Found {
 }
 
 fn closest(scene: &Scene, ray: &Ray) -> Option<Found> {
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     match scene.closest_hit(ray, f32::INFINITY, &mut scratch)? {
         PrimitiveHit::Solid(object, hit) => Some(Found {
             object,

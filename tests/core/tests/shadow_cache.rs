@@ -3,10 +3,10 @@
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
-use strahl_core::geom::solid::prepared::SpanScratch;
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
 use strahl_core_tests::meshes::random_soup;
@@ -68,7 +68,7 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
     let mut rng = Rng::new(17);
     let scene = scene(&mut rng);
     let primitives = (scene.triangle_points.len() + scene.solids.len()) as u32;
-    let mut scratch = SpanScratch::default();
+    let mut scratch = QueryScratch::default();
     let mut last = None;
     let (mut blocked, mut free, mut remembered_hits) = (0, 0, 0);
     for k in 0..20_000 {

@@ -7,6 +7,7 @@
 
 use super::build::child_box;
 use super::{Hit, Octree, MAX_DEPTH_LIMIT};
+use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, RayHit};
 use crate::geom::triangle::{intersect, RayFrame};
 use crate::math::aabb::Aabb;
@@ -55,7 +56,8 @@ impl Octree {
     /// triangle index, exactly as [`super::brute_force_closest_hit`] finds it.
     pub fn closest_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
         let frame = RayFrame::new(ray);
-        self.closest_hit_with(ray, t_max, |i, bound| {
+        let mut work = QueryWork::default();
+        self.closest_hit_with(ray, t_max, &mut work, |i, bound| {
             intersect(&frame, &triangles[i as usize], bound)
         })
         .map(|(triangle, tri)| Hit { triangle, tri })
@@ -63,11 +65,13 @@ impl Octree {
 
     /// The closest hit of `ray` with `0 < t < t_max` among the filed primitives, each tested by
     /// `test(index, bound)`, which returns a hit with `t < bound` or `None`. Ties go to the
-    /// smallest index, so the result does not depend on the order cells are visited in.
+    /// smallest index, so the result does not depend on the order cells are visited in. The cells
+    /// entered and the tests made are added to `work`.
     pub fn closest_hit_with<H: RayHit>(
         &self,
         ray: &Ray,
         t_max: f32,
+        work: &mut QueryWork,
         mut test: impl FnMut(u32, f32) -> Option<H>,
     ) -> Option<(u32, H)> {
         let mut best: Option<(u32, H)> = None;
@@ -75,11 +79,13 @@ impl Octree {
         // that lose the comparison anyway are cut early (the winner stays exact).
         let mut bound = t_max;
         let mut mailbox = Mailbox::new();
-        self.walk(ray, t_max, |indices| {
+        let mut tests = 0u64;
+        work.octree_cells += self.walk(ray, t_max, |indices| {
             for &i in indices {
                 if !mailbox.first_visit(i) {
                     continue;
                 }
+                tests += 1;
                 if let Some(h) = test(i, bound) {
                     if closer(h.t(), i, &best) {
                         best = Some((i, h));
@@ -93,6 +99,7 @@ impl Octree {
                 None => f32::INFINITY,
             }
         });
+        work.intersection_tests += tests;
         best
     }
 
@@ -101,35 +108,49 @@ impl Octree {
     /// the first hit.
     pub fn any_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> bool {
         let frame = RayFrame::new(ray);
-        self.any_hit_with(ray, t_max, |i| {
+        self.any_hit_with(ray, t_max, &mut QueryWork::default(), |i| {
             intersect(&frame, &triangles[i as usize], t_max)
                 .is_some_and(|h| h.t + h.t_error < t_max)
         })
     }
 
     /// True if `test(index)` holds for any filed primitive in a cell the ray crosses before
-    /// `t_max`. Stops at the first.
-    pub fn any_hit_with(&self, ray: &Ray, t_max: f32, mut test: impl FnMut(u32) -> bool) -> bool {
+    /// `t_max`. Stops at the first. The cells entered and the tests made are added to `work`.
+    pub fn any_hit_with(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        work: &mut QueryWork,
+        mut test: impl FnMut(u32) -> bool,
+    ) -> bool {
         let mut found = false;
         let mut mailbox = Mailbox::new();
-        self.walk(ray, t_max, |indices| {
-            found = indices.iter().any(|&i| mailbox.first_visit(i) && test(i));
+        let mut tests = 0u64;
+        work.octree_cells += self.walk(ray, t_max, |indices| {
+            found = indices.iter().any(|&i| {
+                let first = mailbox.first_visit(i);
+                tests += u64::from(first);
+                first && test(i)
+            });
             if found {
                 f32::NEG_INFINITY
             } else {
                 f32::INFINITY
             }
         });
+        work.intersection_tests += tests;
         found
     }
 
     /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's triangle
     /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
-    fn walk(&self, ray: &Ray, t_max: f32, mut leaf: impl FnMut(&[u32]) -> f32) {
+    /// Returns how many cells it entered.
+    fn walk(&self, ray: &Ray, t_max: f32, mut leaf: impl FnMut(&[u32]) -> f32) -> u64 {
         let inv_dir = Vec3::ONE / ray.dir;
         let Some((t0, t1)) = self.bounds.intersect(ray, inv_dir, t_max) else {
-            return;
+            return 0;
         };
+        let mut cells = 0u64;
         let widen = 2.0 * gamma(3);
         let mut stack = [Entry {
             node: 0,
@@ -146,10 +167,11 @@ impl Octree {
             let e = stack[top];
             if e.t0 > cutoff {
                 if cutoff == f32::NEG_INFINITY {
-                    return;
+                    return cells;
                 }
                 continue;
             }
+            cells += 1;
             let node = self.nodes[e.node as usize];
             if node.is_leaf() {
                 let start = node.first as usize;
@@ -174,6 +196,7 @@ impl Octree {
                 top += 1;
             }
         }
+        cells
     }
 }
 

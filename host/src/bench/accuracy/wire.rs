@@ -1,6 +1,7 @@
 //! Bytes on the wire: the framed `LineResult`s of an image with 16-bit pixels (what the
 //! protocol carries) against 8-bit ones (what an 8-bit wire would carry), and their serial time.
 
+use strahl_core::accel::work::QueryWork;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::error::ProtocolError;
@@ -115,6 +116,10 @@ pub fn wire_bytes(
         reflection: rays.reflection / n,
         refraction: rays.refraction / n,
         occlusion: rays.occlusion / n,
+        work: QueryWork {
+            intersection_tests: rays.work.intersection_tests / n,
+            octree_cells: rays.work.octree_cells / n,
+        },
     };
     let mut writer = FrameWriter::new();
     let (mut image16, mut image8) = (0, 0);
