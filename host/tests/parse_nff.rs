@@ -313,7 +313,7 @@ fn bad_input_gives_exact_messages() {
         ),
         (
             format!("{VIEW}{l}{f}s 1 2 3 4 5\n"),
-            "bad.nff:10: `s`: expected 4 numbers (x y z radius), found 5",
+            "bad.nff:10: unexpected number `5` after the complete `s` record of line 10; expected a keyword (v, b, l, f, c, s, p, pp) or a # comment",
         ),
         (
             format!("{VIEW}{l}{f}s 1 2 nan 1\n"),
@@ -341,11 +341,15 @@ fn bad_input_gives_exact_messages() {
         ),
         (
             format!("{VIEW}{l}{f}p 3\n0 0 0\n1 0 0\n"),
-            "bad.nff:10: the file ends inside this block; expected 3 vertex lines of 3 numbers, found 2",
+            "bad.nff:10: `p` vertex 3 of 3: expected 3 numbers (x y z), found 0",
         ),
         (
-            format!("{VIEW}{l}{f}p 3\n0 0 0\n1 0\n0 1 0\n"),
-            "bad.nff:12: `p` vertex 2 of 3: expected 3 numbers (x y z), found 2",
+            format!("{VIEW}{l}{f}p 3\n0 0 0\n1 0\ns 0 1 0 1\n"),
+            "bad.nff:10: `p` vertex 2 of 3: expected 3 numbers (x y z), found 2 before the next keyword `s` (line 13)",
+        ),
+        (
+            format!("{VIEW}{l}{f}p 3\n0 0 0\n1 0 x\n0 1 0\n"),
+            "bad.nff:12: `p` vertex 2 of 3: `x` is not a number",
         ),
         (
             format!("{VIEW}{l}{f}p 2\n0 0 0\n1 0 0\n"),
@@ -369,7 +373,7 @@ fn bad_input_gives_exact_messages() {
         ),
         (
             format!("{VIEW}{l}{f}c 1\n"),
-            "bad.nff:10: `c` stands alone on its line (the base and apex lines follow it), found `1`",
+            "bad.nff:10: `c`: expected 8 numbers (base x y z radius, apex x y z radius), found 1",
         ),
         (
             format!("{VIEW}{l}f 1 1 1 1 0.6 1 0.6 1.5\n"),
@@ -385,7 +389,7 @@ fn bad_input_gives_exact_messages() {
         ),
         (
             "v\nfrom 0 -5 0\nup 0 0 1\n".to_string(),
-            "bad.nff:3: expected `at` (the `v` block is v, from, at, up, angle, hither, resolution, one per line, in this order), found `up`",
+            "bad.nff:3: expected `at` (the `v` block is v, from, at, up, angle, hither, resolution, in this order), found `up`",
         ),
         (
             format!("{VIEW}{VIEW}"),
@@ -405,7 +409,7 @@ fn bad_input_gives_exact_messages() {
         ),
         (
             "v\nfrom 0 0 0\n".to_string(),
-            "bad.nff:1: the file ends inside the `v` block; expected the `at` line",
+            "bad.nff:1: the file ends inside the `v` block; expected `at`",
         ),
         (
             format!("{l}from 0 0 0\n"),
@@ -449,6 +453,116 @@ fn comments_blank_lines_and_crlf_are_skipped() {
         err.to_string(),
         "crlf.nff:18: `s`: expected 4 numbers (x y z radius), found 2"
     );
+}
+
+/// Parses `body` after a view, a light and a material, as `layout.nff`.
+fn scene_of(body: &str) -> SceneDesc {
+    let text = format!("{VIEW}l 1 -5 5\nf 1 1 1 1 0 1 0 1\n{body}");
+    parse_nff(Path::new("layout.nff"), &text).unwrap_or_else(|e| panic!("{e}\n{text}"))
+}
+
+#[test]
+fn a_cone_on_one_line_equals_the_three_line_cone() {
+    // SPD's programs write `c` with its 8 numbers on one line; the NFF specification puts the
+    // base and the apex on the two lines after `c`.
+    let three_lines = scene_of("c\n0 0 0 1\n0 0 2 0.5\n");
+    let one_line = scene_of("c 0 0 0 1 0 0 2 0.5\n");
+    assert_eq!(three_lines.solids.len(), 1);
+    assert_eq!(one_line.solids, three_lines.solids);
+    assert_eq!(format!("{one_line:?}"), format!("{three_lines:?}"));
+    assert_eq!(one_line, three_lines);
+    // Any other split of the 8 numbers, with a comment line and a blank line among them.
+    let odd = scene_of("c 0 0\n# the rest of the base\n0 1 0\n\n0\n2 0.5\n");
+    assert_eq!(odd, three_lines);
+}
+
+#[test]
+fn a_polygon_split_oddly_over_lines_equals_one_vertex_per_line() {
+    let per_line = scene_of("p 4\n-5 -5 0\n5 -5 0\n5 5 0\n-5 5 0\ns 0 0 1 0.5\n");
+    assert_eq!(per_line.triangles.len(), 2);
+    for odd in [
+        "p 4 -5 -5 0 5 -5 0 5 5 0 -5 5 0\ns 0 0 1 0.5\n",
+        "p 4 -5\n-5 0 5 -5\n0 5 5 0 -5 5\n0 s 0 0 1 0.5\n",
+        "p\n4\n-5 -5 0 5 -5 0\n5 5 0 -5 5 0 s\n0 0 1\n0.5\n",
+    ] {
+        assert_eq!(scene_of(odd), per_line, "for\n{odd}");
+    }
+    let pp = "pp 3\n0 0 0 0 0 1\n1 0 0 0 0 2\n0 1 0 0 0 1\n";
+    assert_eq!(
+        scene_of("pp 3 0 0 0 0 0 1 1 0 0\n0 0 2 0 1 0 0 0 1\n"),
+        scene_of(pp)
+    );
+}
+
+#[test]
+fn the_view_and_light_records_may_run_over_lines() {
+    let ball = "f 1 1 1 1 0 1 0 1\ns 0 0 0 1\n";
+    let one_per_line = format!("{VIEW}l 1 2 3 0.5 0.5 0.5\n{ball}");
+    let one_per_line =
+        parse_nff(Path::new("a.nff"), &one_per_line).unwrap_or_else(|e| panic!("{e}"));
+    let run_on = format!(
+        "v from\n0 -5 0 at 0 0 0\nup 0 0 1 angle 45 hither\n0.01 resolution 16\n16\n\
+         l 1 2 3\n0.5 0.5 0.5\n{ball}"
+    );
+    let desc = parse_nff(Path::new("b.nff"), &run_on).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(desc, one_per_line);
+    assert_eq!(desc.lights[0].color, Vec3::splat(0.5));
+}
+
+#[test]
+fn a_cone_cut_short_by_the_next_keyword_names_its_line() {
+    // `c` is on line 10; its seventh number is on line 11, and `s` on line 12 cuts it short.
+    let (err, msg) = error_of(&format!(
+        "{VIEW}l 1 2 3\nf 1 1 1 1 0 1 0 1\nc 0 0 0 1\n0 0 1\ns 0 0 0 1\n"
+    ));
+    assert!(matches!(err, LoadError::At { line: 10, .. }), "{err:?}");
+    assert_eq!(
+        msg,
+        "bad.nff:10: `c`: expected 8 numbers (base x y z radius, apex x y z radius), found 7 \
+         before the next keyword `s` (line 12)"
+    );
+}
+
+#[test]
+fn a_cone_cut_short_by_the_end_of_the_file_names_its_line() {
+    let (err, msg) = error_of(&format!(
+        "{VIEW}l 1 2 3\nf 1 1 1 1 0 1 0 1\nc\n0 0 0 1\n0 0 1\n"
+    ));
+    assert!(matches!(err, LoadError::At { line: 10, .. }), "{err:?}");
+    assert_eq!(
+        msg,
+        "bad.nff:10: `c`: expected 8 numbers (base x y z radius, apex x y z radius), found 7"
+    );
+}
+
+#[test]
+fn a_stray_number_where_a_keyword_belongs_is_an_error() {
+    let expected = "expected a keyword (v, b, l, f, c, s, p, pp) or a # comment";
+    let cases = [
+        (
+            format!("{VIEW}l 1 2 3\nf 1 1 1 1 0 1 0 1\np 3\n0 0 0\n1 0 0\n0 1 0\n1 1 1\n"),
+            format!(
+                "bad.nff:14: unexpected number `1` after the complete `p` record of line 10; \
+                 {expected}"
+            ),
+        ),
+        (
+            format!("{VIEW}l 1 2 3\nf 1 1 1 1 0 1 0 1\ns 0 0 0 1 2\n"),
+            format!(
+                "bad.nff:10: unexpected number `2` after the complete `s` record of line 10; \
+                 {expected}"
+            ),
+        ),
+        (
+            "# a comment\n0.5 v\n".to_string(),
+            format!("bad.nff:2: unexpected number `0.5`; {expected}"),
+        ),
+    ];
+    for (text, message) in &cases {
+        let (err, msg) = error_of(text);
+        assert_eq!(&msg, message, "for\n{text}");
+        assert!(matches!(err, LoadError::At { .. }));
+    }
 }
 
 #[test]

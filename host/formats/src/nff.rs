@@ -10,11 +10,19 @@
 //! | `b r g b` | the background colour |
 //! | `l x y z [r g b]` | a shadow-casting point light, white unless given, amount `1/√n` for `n` lights (as SPD's POV-Ray files) |
 //! | `f r g b Kd Ks Shine T ior` | a [`Shader`] for the primitives that follow (see [`shader_from_nff`]) |
-//! | `c` + two lines `x y z r` | a cone frustum [`Shape::Cylinder`] from base to apex, **capped** (NFF's is open) |
+//! | `c bx by bz br ax ay az ar` | a cone frustum [`Shape::Cylinder`] from base to apex, **capped** (NFF's is open) |
 //! | `s x y z r` | a [`Shape::Sphere`] |
-//! | `p n` + `n` lines `x y z` | a convex polygon, split into a fan of `n − 2` triangles (flat: its points are its own) |
-//! | `pp n` + `n` lines `x y z nx ny nz` | the same with a shading normal at each corner |
+//! | `p n` + `n` vertices `x y z` | a convex polygon, split into a fan of `n − 2` triangles (flat: its points are its own) |
+//! | `pp n` + `n` vertices `x y z nx ny nz` | the same with a shading normal at each corner |
 //! | `#` | a comment line |
+//!
+//! The file is read as a stream of whitespace-separated **records**, not lines: a keyword and
+//! then exactly the numbers it takes (cone 8, sphere 4, `f` 8, `b` 3, `l` 3 or 6, `p n` 3n,
+//! `pp n` 6n, each `v` sub-keyword its own), on its line or on any lines after it. So both
+//! layouts SPD's programs write load: a cone on one line and the specification's `c` with its base
+//! and apex on two lines below it. Numbers are never keywords, so a record ends where its count
+//! is reached; a keyword before that cuts it short (an error), and a number where a keyword is
+//! expected is an error too. A line whose first word starts with `#` is a comment.
 //!
 //! Render settings other than the image size and background keep Strahl's defaults (SPD's own
 //! rules trace at most 5 bounces without a weight cut-off; `--max-depth 5` comes closer).
@@ -44,14 +52,16 @@ pub fn load_nff(path: &Path) -> Result<SceneDesc, LoadError> {
 /// Parses NFF text into a validated scene; `path` is only used in error messages.
 ///
 /// # Errors
-/// [`LoadError::At`] for the first bad line: an unknown keyword, a wrong count of numbers, a
-/// number that is not one or not finite, a value out of range, a primitive before the first `f`,
-/// a second `v` or `b`, or a block (`v`, `c`, `p`, `pp`) cut short. [`LoadError::File`] for a
-/// file without `v` block or light, or a scene that [`SceneDesc::validate`] rejects.
+/// [`LoadError::At`] for the first bad word, naming its line: an unknown keyword, a number where a
+/// keyword belongs, a word that is not a number or not finite, a value out of range, a primitive
+/// before the first `f`, a second `v` or `b`, or a record cut short by the next keyword or the end
+/// of the file (named by its keyword's line). [`LoadError::File`] for a file without `v` block or
+/// light, or a scene that [`SceneDesc::validate`] rejects.
 pub fn parse_nff(path: &Path, text: &str) -> Result<SceneDesc, LoadError> {
     let mut p = Parser {
         path,
-        lines: text.split('\n').enumerate(),
+        words: Words::new(text),
+        previous: None,
         desc: SceneDesc::default(),
         shader: None,
         view_seen: false,
@@ -103,11 +113,112 @@ pub fn cone_transform(base: Vec3, apex: Vec3) -> Option<(Transform, f32)> {
     ))
 }
 
-type NumberedLines<'a> = std::iter::Enumerate<std::str::Split<'a, char>>;
+/// One word of the file and the line it is on.
+#[derive(Clone, Copy)]
+struct Word<'a> {
+    text: &'a str,
+    line: usize,
+}
+
+/// The words of an NFF text in order, across lines: blank lines and comment lines (first word
+/// starting with `#`) are skipped, and a byte order mark before the first word is dropped.
+struct Words<'a> {
+    lines: std::iter::Enumerate<std::str::Split<'a, char>>,
+    /// The words left on the current line.
+    current: std::str::SplitAsciiWhitespace<'a>,
+    /// The current line's number, from 1.
+    line: usize,
+    /// A word read ahead by [`Words::peek`], handed out next.
+    peeked: Option<Word<'a>>,
+}
+
+impl<'a> Words<'a> {
+    fn new(text: &'a str) -> Self {
+        Words {
+            lines: text.split('\n').enumerate(),
+            current: "".split_ascii_whitespace(),
+            line: 0,
+            peeked: None,
+        }
+    }
+
+    /// The next word, without taking it.
+    fn peek(&mut self) -> Option<Word<'a>> {
+        if self.peeked.is_none() {
+            self.peeked = self.read();
+        }
+        self.peeked
+    }
+
+    /// The next word of the file, moving on to the next meaningful line when this one is spent.
+    fn read(&mut self) -> Option<Word<'a>> {
+        loop {
+            if let Some(text) = self.current.next() {
+                return Some(Word {
+                    text,
+                    line: self.line,
+                });
+            }
+            let (i, raw) = self.lines.next()?;
+            let text = if i == 0 {
+                raw.strip_prefix('\u{feff}').unwrap_or(raw)
+            } else {
+                raw
+            };
+            // `\r` of a CRLF line end is ASCII white space, so it never reaches a word.
+            let words = text.split_ascii_whitespace();
+            if !words.clone().next().is_some_and(|w| w.starts_with('#')) {
+                self.current = words;
+                self.line = i + 1;
+            }
+        }
+    }
+}
+
+impl<'a> Iterator for Words<'a> {
+    type Item = Word<'a>;
+
+    fn next(&mut self) -> Option<Word<'a>> {
+        self.peeked.take().or_else(|| self.read())
+    }
+}
+
+/// Whether `word` starts a record (or a `v` sub-record): such a word ends the numbers before it.
+fn is_keyword(word: &str) -> bool {
+    matches!(
+        word,
+        "v" | "b"
+            | "l"
+            | "f"
+            | "c"
+            | "s"
+            | "p"
+            | "pp"
+            | "from"
+            | "at"
+            | "up"
+            | "angle"
+            | "hither"
+            | "resolution"
+    )
+}
+
+fn is_number(word: &str) -> bool {
+    word.parse::<f32>().is_ok()
+}
+
+/// A number read from the file and the line it is on.
+#[derive(Clone, Copy, Default)]
+struct Num {
+    value: f32,
+    line: usize,
+}
 
 struct Parser<'a> {
     path: &'a Path,
-    lines: NumberedLines<'a>,
+    words: Words<'a>,
+    /// The keyword of the last complete record, for the message about a stray number after it.
+    previous: Option<Word<'a>>,
     desc: SceneDesc,
     /// The current `f` material, an index into `desc.shaders`.
     shader: Option<u32>,
@@ -115,14 +226,7 @@ struct Parser<'a> {
     background_seen: bool,
 }
 
-/// One meaningful line: its number and text.
-#[derive(Clone, Copy)]
-struct Ln<'a> {
-    number: usize,
-    text: &'a str,
-}
-
-/// "`p` vertex 2 of 4", for messages about one vertex line of a polygon.
+/// "`p` vertex 2 of 4", for messages about one vertex of a polygon.
 struct VertexOf<'k> {
     keyword: &'k str,
     k: u32,
@@ -135,23 +239,6 @@ impl fmt::Display for VertexOf<'_> {
     }
 }
 
-/// "4 vertex lines of 3 numbers, found 2", for a polygon cut short by the end of the file.
-struct VertexLines<'e> {
-    n: u32,
-    expected: &'e str,
-    found: u32,
-}
-
-impl fmt::Display for VertexLines<'_> {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{} vertex lines of {}, found {}",
-            self.n, self.expected, self.found
-        )
-    }
-}
-
 fn plural(n: usize) -> &'static str {
     if n == 1 {
         ""
@@ -160,6 +247,7 @@ fn plural(n: usize) -> &'static str {
     }
 }
 
+/// Reading words: records, their numbers, and the errors about them.
 impl<'a> Parser<'a> {
     fn error(&self, line: usize, message: impl Into<String>) -> LoadError {
         LoadError::At {
@@ -169,180 +257,185 @@ impl<'a> Parser<'a> {
         }
     }
 
-    /// The next line that is neither blank nor a `#` comment.
-    fn next_line(&mut self) -> Option<Ln<'a>> {
-        for (i, raw) in self.lines.by_ref() {
-            let text = raw.strip_suffix('\r').unwrap_or(raw);
-            let text = if i == 0 {
-                text.strip_prefix('\u{feff}').unwrap_or(text)
-            } else {
-                text
-            };
-            match text.split_ascii_whitespace().next() {
-                None => continue,
-                Some(w) if w.starts_with('#') => continue,
-                Some(_) => {
-                    return Some(Ln {
-                        number: i + 1,
-                        text,
-                    })
-                }
-            }
+    /// The next word if it belongs to the current record (it is not a keyword); `None` at the end
+    /// of the file or before the next keyword, which stays unread.
+    fn value_word(&mut self) -> Option<Word<'a>> {
+        match self.words.peek() {
+            Some(w) if !is_keyword(w.text) => self.words.next(),
+            _ => None,
         }
-        None
     }
 
-    /// Parses exactly `N` finite numbers from `words`; `what` names the statement and `fields`
-    /// the expected values, for messages.
-    fn numbers<const N: usize>(
-        &self,
-        line: usize,
-        mut words: std::str::SplitAsciiWhitespace<'_>,
-        what: &dyn fmt::Display,
-        fields: &str,
-    ) -> Result<[f32; N], LoadError> {
-        let mut out = [0.0f32; N];
-        let mut n = 0;
-        for w in words.by_ref() {
-            if n == N {
-                n += 1 + words.count();
-                break;
-            }
-            out[n] = self.number(line, w, what)?;
-            n += 1;
-        }
-        if n != N {
-            return Err(self.error(
+    /// Whether the next word is a number (and so continues the current record).
+    fn next_is_number(&mut self) -> bool {
+        self.words.peek().is_some_and(|w| is_number(w.text))
+    }
+
+    /// The error for a record cut short: `message` on the record's keyword `line`, saying which
+    /// keyword cut it (at the end of the file, `message` alone).
+    fn cut_short(&mut self, line: usize, message: String) -> LoadError {
+        match self.words.peek() {
+            Some(next) => self.error(
                 line,
                 format!(
-                    "{what}: expected {N} number{} ({fields}), found {n}",
-                    plural(N)
+                    "{message} before the next keyword `{}` (line {})",
+                    next.text, next.line
                 ),
-            ));
+            ),
+            None => self.error(line, message),
+        }
+    }
+
+    /// The next `N` numbers of the record whose keyword is on `line`; `what` names the record and
+    /// `fields` the expected values, for messages.
+    fn numbers<const N: usize>(
+        &mut self,
+        line: usize,
+        what: &dyn fmt::Display,
+        fields: &str,
+    ) -> Result<[Num; N], LoadError> {
+        let mut out = [Num::default(); N];
+        for (found, slot) in out.iter_mut().enumerate() {
+            let Some(word) = self.value_word() else {
+                let message = format!(
+                    "{what}: expected {N} number{} ({fields}), found {found}",
+                    plural(N)
+                );
+                return Err(self.cut_short(line, message));
+            };
+            *slot = Num {
+                value: self.number(word, what)?,
+                line: word.line,
+            };
         }
         Ok(out)
     }
 
-    fn number(&self, line: usize, word: &str, what: &dyn fmt::Display) -> Result<f32, LoadError> {
-        match word.parse::<f32>() {
+    fn number(&self, word: Word<'_>, what: &dyn fmt::Display) -> Result<f32, LoadError> {
+        match word.text.parse::<f32>() {
             Ok(v) if v.is_finite() => Ok(v),
-            Ok(_) => Err(self.error(line, format!("{what}: `{word}` is not a finite number"))),
-            Err(_) => Err(self.error(line, format!("{what}: `{word}` is not a number"))),
-        }
-    }
-
-    fn run(&mut self) -> Result<(), LoadError> {
-        while let Some(ln) = self.next_line() {
-            let mut words = ln.text.split_ascii_whitespace();
-            let keyword = words.next().unwrap_or("");
-            match keyword {
-                "v" => self.view(ln, words)?,
-                "b" => {
-                    if self.background_seen {
-                        return Err(self.error(
-                            ln.number,
-                            "a second `b`; the background colour is given once",
-                        ));
-                    }
-                    self.background_seen = true;
-                    let c = self.numbers::<3>(ln.number, words, &"`b`", "r g b")?;
-                    self.desc.settings.background = Vec3::from_array(c);
-                }
-                "l" => self.light(ln, words)?,
-                "f" => self.material(ln, words)?,
-                "c" => self.cone(ln, words)?,
-                "s" => self.sphere(ln, words)?,
-                "p" => self.polygon(ln, words, false)?,
-                "pp" => self.polygon(ln, words, true)?,
-                "from" | "at" | "up" | "angle" | "hither" | "resolution" => {
-                    return Err(self.error(
-                        ln.number,
-                        format!("`{keyword}` outside a `v` block; it belongs after `v`"),
-                    ))
-                }
-                _ => {
-                    return Err(self.error(
-                        ln.number,
-                        format!(
-                            "unknown keyword `{keyword}`; expected v, b, l, f, c, s, p, pp or a \
-                             # comment"
-                        ),
-                    ))
-                }
-            }
-        }
-        Ok(())
-    }
-
-    fn expect_no_values(
-        &self,
-        ln: Ln<'_>,
-        mut words: std::str::SplitAsciiWhitespace<'_>,
-        keyword: &str,
-        lines: &str,
-    ) -> Result<(), LoadError> {
-        match words.next() {
-            None => Ok(()),
-            Some(w) => Err(self.error(
-                ln.number,
-                format!("`{keyword}` stands alone on its line ({lines} follow it), found `{w}`"),
+            Ok(_) => Err(self.error(
+                word.line,
+                format!("{what}: `{}` is not a finite number", word.text),
+            )),
+            Err(_) => Err(self.error(
+                word.line,
+                format!("{what}: `{}` is not a number", word.text),
             )),
         }
     }
 
-    /// The next line of a block, whose first word must be `keyword`.
-    fn block_line(&mut self, block: Ln<'_>, keyword: &str) -> Result<Ln<'a>, LoadError> {
-        let Some(ln) = self.next_line() else {
+    /// The error for a word where a keyword belongs: a stray number or an unknown keyword.
+    fn not_a_keyword(&self, word: Word<'_>) -> LoadError {
+        if !is_number(word.text) {
+            return self.error(
+                word.line,
+                format!(
+                    "unknown keyword `{}`; expected v, b, l, f, c, s, p, pp or a # comment",
+                    word.text
+                ),
+            );
+        }
+        let after = match self.previous {
+            Some(p) => format!(" after the complete `{}` record of line {}", p.text, p.line),
+            None => String::new(),
+        };
+        self.error(
+            word.line,
+            format!(
+                "unexpected number `{}`{after}; expected a keyword (v, b, l, f, c, s, p, pp) or \
+                 a # comment",
+                word.text
+            ),
+        )
+    }
+}
+
+/// The records.
+impl<'a> Parser<'a> {
+    fn run(&mut self) -> Result<(), LoadError> {
+        while let Some(keyword) = self.words.next() {
+            self.record(keyword)?;
+            self.previous = Some(keyword);
+        }
+        Ok(())
+    }
+
+    /// Reads the record that `keyword` starts.
+    fn record(&mut self, keyword: Word<'a>) -> Result<(), LoadError> {
+        match keyword.text {
+            "v" => self.view(keyword),
+            "b" => self.background(keyword),
+            "l" => self.light(keyword),
+            "f" => self.material(keyword),
+            "c" => self.cone(keyword),
+            "s" => self.sphere(keyword),
+            "p" => self.polygon(keyword, false),
+            "pp" => self.polygon(keyword, true),
+            "from" | "at" | "up" | "angle" | "hither" | "resolution" => Err(self.error(
+                keyword.line,
+                format!(
+                    "`{}` outside a `v` block; it belongs after `v`",
+                    keyword.text
+                ),
+            )),
+            _ => Err(self.not_a_keyword(keyword)),
+        }
+    }
+
+    fn background(&mut self, keyword: Word<'_>) -> Result<(), LoadError> {
+        if self.background_seen {
             return Err(self.error(
-                block.number,
-                format!("the file ends inside the `v` block; expected the `{keyword}` line"),
+                keyword.line,
+                "a second `b`; the background colour is given once",
+            ));
+        }
+        self.background_seen = true;
+        let [r, g, b] = self.numbers::<3>(keyword.line, &"`b`", "r g b")?;
+        self.desc.settings.background = Vec3::new(r.value, g.value, b.value);
+        Ok(())
+    }
+
+    /// The next word of the `v` block, which must be the sub-keyword `expected`.
+    fn view_keyword(&mut self, block: Word<'_>, expected: &str) -> Result<Word<'a>, LoadError> {
+        let Some(word) = self.words.next() else {
+            return Err(self.error(
+                block.line,
+                format!("the file ends inside the `v` block; expected `{expected}`"),
             ));
         };
-        let first = ln.text.split_ascii_whitespace().next().unwrap_or("");
-        if first != keyword {
+        if word.text != expected {
             return Err(self.error(
-                ln.number,
+                word.line,
                 format!(
-                    "expected `{keyword}` (the `v` block is v, from, at, up, angle, hither, \
-                     resolution, one per line, in this order), found `{first}`"
+                    "expected `{expected}` (the `v` block is v, from, at, up, angle, hither, \
+                     resolution, in this order), found `{}`",
+                    word.text
                 ),
             ));
         }
-        Ok(ln)
+        Ok(word)
     }
 
-    /// The next line of the `v` block, `keyword` and `N` numbers, with its line number.
+    /// The `v` block's next sub-record: `keyword` and `N` numbers; also the keyword's line.
     fn view_numbers<const N: usize>(
         &mut self,
-        block: Ln<'_>,
+        block: Word<'_>,
         keyword: &str,
         fields: &str,
-    ) -> Result<([f32; N], usize), LoadError> {
-        let l = self.block_line(block, keyword)?;
-        let mut w = l.text.split_ascii_whitespace();
-        w.next();
-        let v = self.numbers::<N>(l.number, w, &format!("`{keyword}`"), fields)?;
-        Ok((v, l.number))
+    ) -> Result<([Num; N], usize), LoadError> {
+        let sub = self.view_keyword(block, keyword)?;
+        let v = self.numbers::<N>(sub.line, &format!("`{keyword}`"), fields)?;
+        Ok((v, sub.line))
     }
 
-    fn view(
-        &mut self,
-        ln: Ln<'_>,
-        words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(), LoadError> {
-        if self.view_seen {
-            return Err(self.error(ln.number, "a second `v` block; the viewpoint is given once"));
-        }
-        self.view_seen = true;
-        self.expect_no_values(ln, words, "v", "from, at, up, angle, hither and resolution")?;
-        let (from, _) = self.view_numbers::<3>(ln, "from", "x y z")?;
-        let (at, at_line) = self.view_numbers::<3>(ln, "at", "x y z")?;
-        let (up, up_line) = self.view_numbers::<3>(ln, "up", "x y z")?;
-        let (from, at, up) = (
-            Vec3::from_array(from),
-            Vec3::from_array(at),
-            Vec3::from_array(up),
-        );
+    /// The `v` block's `from x y z`, `at x y z` and `up x y z`: a camera that can look somewhere.
+    fn view_axes(&mut self, block: Word<'_>) -> Result<[Vec3; 3], LoadError> {
+        let point = |[x, y, z]: [Num; 3]| Vec3::new(x.value, y.value, z.value);
+        let (from, _) = self.view_numbers::<3>(block, "from", "x y z")?;
+        let (at, at_line) = self.view_numbers::<3>(block, "at", "x y z")?;
+        let (up, up_line) = self.view_numbers::<3>(block, "up", "x y z")?;
+        let (from, at, up) = (point(from), point(at), point(up));
         if from == at {
             return Err(self.error(
                 at_line,
@@ -355,81 +448,70 @@ impl<'a> Parser<'a> {
                 "`up`: parallel to the view direction (or zero); it must point across the view",
             ));
         }
-        let ([angle], angle_line) = self.view_numbers::<1>(ln, "angle", "degrees")?;
-        if !(angle > 0.0 && angle < 180.0) {
+        Ok([from, at, up])
+    }
+
+    fn view(&mut self, block: Word<'_>) -> Result<(), LoadError> {
+        if self.view_seen {
             return Err(self.error(
-                angle_line,
-                format!("`angle` must be above 0 and below 180 degrees, found {angle}"),
+                block.line,
+                "a second `v` block; the viewpoint is given once",
+            ));
+        }
+        self.view_seen = true;
+        let [from, at, up] = self.view_axes(block)?;
+        let ([angle], _) = self.view_numbers::<1>(block, "angle", "degrees")?;
+        if !(angle.value > 0.0 && angle.value < 180.0) {
+            return Err(self.error(
+                angle.line,
+                format!(
+                    "`angle` must be above 0 and below 180 degrees, found {}",
+                    angle.value
+                ),
             ));
         }
         // Read for the format's sake; Strahl has no near clipping plane.
-        let _hither = self.view_numbers::<1>(ln, "hither", "distance")?;
-        let l = self.block_line(ln, "resolution")?;
-        let mut w = l.text.split_ascii_whitespace();
-        w.next();
-        let (width, height) = self.resolution(l.number, w)?;
+        let _hither = self.view_numbers::<1>(block, "hither", "distance")?;
+        let sub = self.view_keyword(block, "resolution")?;
+        let [width, height] = [self.image_side(sub.line, 0)?, self.image_side(sub.line, 1)?];
         self.desc.camera = Camera::LookAt(LookAtCamera {
             position: from,
             look_at: at,
             up,
-            vfov_deg: angle,
+            vfov_deg: angle.value,
         });
         self.desc.settings.width = width;
         self.desc.settings.height = height;
         Ok(())
     }
 
-    fn resolution(
-        &self,
-        line: usize,
-        words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(u32, u32), LoadError> {
-        let mut out = [0u32; 2];
-        let mut n = 0;
-        for w in words {
-            if n < 2 {
-                out[n] = match w.parse::<u32>() {
-                    Ok(v) if (1..=MAX_IMAGE_SIDE).contains(&v) => v,
-                    _ => {
-                        return Err(self.error(
-                            line,
-                            format!(
-                                "`resolution`: `{w}` is not an image side; expected a whole \
-                                 number from 1 to {MAX_IMAGE_SIDE}"
-                            ),
-                        ))
-                    }
-                };
-            }
-            n += 1;
+    /// Number `found` (0 or 1) of `resolution` (on `line`): a whole number from 1 to the limit.
+    fn image_side(&mut self, line: usize, found: usize) -> Result<u32, LoadError> {
+        let Some(word) = self.value_word() else {
+            let message = format!("`resolution`: expected 2 numbers (width height), found {found}");
+            return Err(self.cut_short(line, message));
+        };
+        match word.text.parse::<u32>() {
+            Ok(v) if (1..=MAX_IMAGE_SIDE).contains(&v) => Ok(v),
+            _ => Err(self.error(
+                word.line,
+                format!(
+                    "`resolution`: `{}` is not an image side; expected a whole number from 1 to \
+                     {MAX_IMAGE_SIDE}",
+                    word.text
+                ),
+            )),
         }
-        if n != 2 {
-            return Err(self.error(
-                line,
-                format!("`resolution`: expected 2 numbers (width height), found {n}"),
-            ));
-        }
-        Ok((out[0], out[1]))
     }
 
-    fn light(
-        &mut self,
-        ln: Ln<'_>,
-        mut words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(), LoadError> {
+    /// `l x y z [r g b]`: the colour is read when a number follows the position.
+    fn light(&mut self, keyword: Word<'_>) -> Result<(), LoadError> {
         let mut v = [1.0f32; 6];
-        let mut n = 0;
-        for w in words.by_ref() {
-            if n < 6 {
-                v[n] = self.number(ln.number, w, &"`l`")?;
+        for (found, slot) in v.iter_mut().enumerate() {
+            if found == 3 && !self.next_is_number() {
+                break;
             }
-            n += 1;
-        }
-        if n != 3 && n != 6 {
-            return Err(self.error(
-                ln.number,
-                format!("`l`: expected 3 numbers (x y z) or 6 (x y z r g b), found {n}"),
-            ));
+            *slot = self.light_number(keyword, found)?;
         }
         self.desc.lights.push(Light {
             position: Vec3::new(v[0], v[1], v[2]),
@@ -440,51 +522,24 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn material(
-        &mut self,
-        ln: Ln<'_>,
-        words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(), LoadError> {
-        let [r, g, b, kd, ks, shine, t, ior] =
-            self.numbers::<8>(ln.number, words, &"`f`", "r g b Kd Ks Shine T ior")?;
-        let range = |what: &str, v: f32, lo: f32, hi: f32| {
-            if (lo..=hi).contains(&v) {
-                Ok(())
-            } else {
-                Err(self.error(
-                    ln.number,
-                    format!("`f`: {what} must be {lo} to {hi}, found {v}"),
-                ))
+    /// The next number of the `l` record, `found` numbers having been read.
+    fn light_number(&mut self, keyword: Word<'_>, found: usize) -> Result<f32, LoadError> {
+        match self.value_word() {
+            Some(word) => self.number(word, &"`l`"),
+            None => {
+                let message =
+                    format!("`l`: expected 3 numbers (x y z) or 6 (x y z r g b), found {found}");
+                Err(self.cut_short(keyword.line, message))
             }
-        };
-        range("Ks (the reflection coefficient)", ks, 0.0, 1.0)?;
-        range("T (the transmittance)", t, 0.0, 1.0)?;
-        if kd < 0.0 {
-            return Err(self.error(ln.number, format!("`f`: Kd must be 0 or more, found {kd}")));
         }
-        if shine < 0.0 {
-            return Err(self.error(
-                ln.number,
-                format!("`f`: Shine must be 0 or more, found {shine}"),
-            ));
-        }
-        if ks + t > 1.0 {
-            return Err(self.error(
-                ln.number,
-                format!(
-                    "`f`: Ks + T must be at most 1 (reflected and transmitted shares), found {}",
-                    ks + t
-                ),
-            ));
-        }
-        if t > 0.0 && ior <= 0.0 {
-            return Err(self.error(
-                ln.number,
-                format!("`f`: ior must be above 0 for a transparent material, found {ior}"),
-            ));
-        }
+    }
+
+    fn material(&mut self, keyword: Word<'_>) -> Result<(), LoadError> {
+        let values = self.numbers::<8>(keyword.line, &"`f`", "r g b Kd Ks Shine T ior")?;
+        self.check_material(&values)?;
+        let [r, g, b, kd, ks, shine, t, ior] = values.map(|n| n.value);
         let index = u32::try_from(self.desc.shaders.len())
-            .map_err(|_| self.error(ln.number, "`f`: too many materials"))?;
+            .map_err(|_| self.error(keyword.line, "`f`: too many materials"))?;
         self.desc
             .shaders
             .push(shader_from_nff(Vec3::new(r, g, b), kd, ks, shine, t, ior));
@@ -492,13 +547,57 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn current_shader(&self, line: usize, keyword: &str) -> Result<u32, LoadError> {
+    /// The ranges of `f`'s values; an error names the line of the value (of T for Ks + T).
+    fn check_material(&self, values: &[Num; 8]) -> Result<(), LoadError> {
+        let [_, _, _, kd, ks, shine, t, ior] = *values;
+        let fail = |n: Num, message: String| Err(self.error(n.line, format!("`f`: {message}")));
+        let range = |what: &str, n: Num| {
+            if (0.0..=1.0).contains(&n.value) {
+                Ok(())
+            } else {
+                fail(n, format!("{what} must be 0 to 1, found {}", n.value))
+            }
+        };
+        range("Ks (the reflection coefficient)", ks)?;
+        range("T (the transmittance)", t)?;
+        if kd.value < 0.0 {
+            return fail(kd, format!("Kd must be 0 or more, found {}", kd.value));
+        }
+        if shine.value < 0.0 {
+            return fail(
+                shine,
+                format!("Shine must be 0 or more, found {}", shine.value),
+            );
+        }
+        if ks.value + t.value > 1.0 {
+            return fail(
+                t,
+                format!(
+                    "Ks + T must be at most 1 (reflected and transmitted shares), found {}",
+                    ks.value + t.value
+                ),
+            );
+        }
+        if t.value > 0.0 && ior.value <= 0.0 {
+            return fail(
+                ior,
+                format!(
+                    "ior must be above 0 for a transparent material, found {}",
+                    ior.value
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    fn current_shader(&self, keyword: Word<'_>) -> Result<u32, LoadError> {
         self.shader.ok_or_else(|| {
             self.error(
-                line,
+                keyword.line,
                 format!(
-                    "`{keyword}` before the first `f`; a primitive takes the material of the \
-                     last `f` above it"
+                    "`{}` before the first `f`; a primitive takes the material of the last `f` \
+                     above it",
+                    keyword.text
                 ),
             )
         })
@@ -512,95 +611,45 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    fn sphere(
-        &mut self,
-        ln: Ln<'_>,
-        words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(), LoadError> {
-        let shader = self.current_shader(ln.number, "s")?;
-        let [x, y, z, radius] = self.numbers::<4>(ln.number, words, &"`s`", "x y z radius")?;
-        if radius <= 0.0 {
+    fn sphere(&mut self, keyword: Word<'_>) -> Result<(), LoadError> {
+        let shader = self.current_shader(keyword)?;
+        let [x, y, z, radius] = self.numbers::<4>(keyword.line, &"`s`", "x y z radius")?;
+        if radius.value <= 0.0 {
             return Err(self.error(
-                ln.number,
-                format!("`s`: the radius must be above 0, found {radius}"),
+                radius.line,
+                format!("`s`: the radius must be above 0, found {}", radius.value),
             ));
         }
         self.add_solid(
-            ln.number,
+            keyword.line,
             SolidNode::Leaf {
-                shape: Shape::Sphere { radius },
-                transform: Transform::translate(Vec3::new(x, y, z)),
+                shape: Shape::Sphere {
+                    radius: radius.value,
+                },
+                transform: Transform::translate(Vec3::new(x.value, y.value, z.value)),
                 shader,
             },
         )
     }
 
-    /// The line after a block's first line (`c`, `p`, `pp`), or an error naming the block.
-    fn member_line(&mut self, block: Ln<'_>, what: &dyn fmt::Display) -> Result<Ln<'a>, LoadError> {
-        self.next_line().ok_or_else(|| {
-            self.error(
-                block.number,
-                format!("the file ends inside this block; expected {what}"),
-            )
-        })
-    }
-
-    fn cone(
-        &mut self,
-        ln: Ln<'_>,
-        words: std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<(), LoadError> {
-        let shader = self.current_shader(ln.number, "c")?;
-        self.expect_no_values(ln, words, "c", "the base and apex lines")?;
-        let base_ln = self.member_line(ln, &"the base line `x y z radius`")?;
-        let [bx, by, bz, br] = self.numbers::<4>(
-            base_ln.number,
-            base_ln.text.split_ascii_whitespace(),
-            &"`c` base",
-            "x y z radius",
-        )?;
-        let apex_ln = self.member_line(ln, &"the apex line `x y z radius`")?;
-        let [ax, ay, az, ar] = self.numbers::<4>(
-            apex_ln.number,
-            apex_ln.text.split_ascii_whitespace(),
-            &"`c` apex",
-            "x y z radius",
-        )?;
-        // NFF: both radii negative shows the inside; Strahl's solids have both sides anyway.
-        let (br, ar) = if br < 0.0 && ar < 0.0 {
-            (-br, -ar)
-        } else if br < 0.0 || ar < 0.0 {
-            return Err(self.error(
-                if br < 0.0 {
-                    base_ln.number
-                } else {
-                    apex_ln.number
-                },
-                "`c`: a negative radius needs the other one negative too (both negative shows \
-                 the inside)",
-            ));
-        } else {
-            (br, ar)
-        };
-        if br == 0.0 && ar == 0.0 {
-            return Err(self.error(
-                apex_ln.number,
-                "`c`: the base and apex radii are both 0; at least one must be above 0",
-            ));
-        }
-        let (base, apex) = (Vec3::new(bx, by, bz), Vec3::new(ax, ay, az));
+    /// `c bx by bz br ax ay az ar`, on one line or over several.
+    fn cone(&mut self, keyword: Word<'_>) -> Result<(), LoadError> {
+        let shader = self.current_shader(keyword)?;
+        let values =
+            self.numbers::<8>(keyword.line, &"`c`", "base x y z radius, apex x y z radius")?;
+        let [bx, by, bz, br, ax, ay, az, ar] = values;
+        let (bottom_radius, top_radius) = self.cone_radii(br, ar)?;
+        let base = Vec3::new(bx.value, by.value, bz.value);
+        let apex = Vec3::new(ax.value, ay.value, az.value);
         let Some((transform, height)) = cone_transform(base, apex) else {
-            return Err(self.error(
-                apex_ln.number,
-                "`c`: the apex is the base point; they must differ",
-            ));
+            return Err(self.error(ax.line, "`c`: the apex is the base point; they must differ"));
         };
         self.add_solid(
-            ln.number,
+            keyword.line,
             SolidNode::Leaf {
                 shape: Shape::Cylinder {
-                    bottom_radius: br,
-                    top_radius: ar,
+                    bottom_radius,
+                    top_radius,
                     height,
                 },
                 transform,
@@ -609,48 +658,45 @@ impl<'a> Parser<'a> {
         )
     }
 
-    fn polygon(
-        &mut self,
-        ln: Ln<'_>,
-        mut words: std::str::SplitAsciiWhitespace<'_>,
-        with_normals: bool,
-    ) -> Result<(), LoadError> {
-        let keyword = if with_normals { "pp" } else { "p" };
-        let shader = self.current_shader(ln.number, keyword)?;
-        let n = self.vertex_count(ln.number, keyword, &mut words)?;
-        let (fields, expected) = if with_normals {
-            ("x y z nx ny nz", "6 numbers")
-        } else {
-            ("x y z", "3 numbers")
-        };
+    /// The base and apex radii of a cone: both 0 or more, or both negative (NFF: shows the
+    /// inside; Strahl's solids have both sides anyway), and not both 0.
+    fn cone_radii(&self, base: Num, apex: Num) -> Result<(f32, f32), LoadError> {
+        let (b, a) = (base.value, apex.value);
+        if (b < 0.0) != (a < 0.0) {
+            return Err(self.error(
+                if b < 0.0 { base.line } else { apex.line },
+                "`c`: a negative radius needs the other one negative too (both negative shows \
+                 the inside)",
+            ));
+        }
+        if b == 0.0 && a == 0.0 {
+            return Err(self.error(
+                apex.line,
+                "`c`: the base and apex radii are both 0; at least one must be above 0",
+            ));
+        }
+        Ok((b.abs(), a.abs()))
+    }
+
+    /// `p n` followed by `n` vertices `x y z`, or `pp n` by `n` vertices `x y z nx ny nz`
+    /// (`with_normals`), the numbers on any lines.
+    fn polygon(&mut self, keyword: Word<'_>, with_normals: bool) -> Result<(), LoadError> {
+        let shader = self.current_shader(keyword)?;
+        let n = self.vertex_count(keyword)?;
         let first_point = self.desc.points.len();
         let first_normal = self.desc.normals.len();
         for k in 1..=n {
             // Messages are only formatted on error: no allocation per vertex.
-            let v = self.member_line(
-                ln,
-                &VertexLines {
-                    n,
-                    expected,
-                    found: k - 1,
-                },
-            )?;
-            let what = VertexOf { keyword, k, n };
-            let words = v.text.split_ascii_whitespace();
+            let what = VertexOf {
+                keyword: keyword.text,
+                k,
+                n,
+            };
             if with_normals {
-                let [x, y, z, nx, ny, nz] = self.numbers::<6>(v.number, words, &what, fields)?;
-                let normal = Vec3::new(nx, ny, nz);
-                if normal.length_squared() == 0.0 {
-                    return Err(self.error(
-                        v.number,
-                        format!("{what}: the normal ({nx} {ny} {nz}) has zero length"),
-                    ));
-                }
-                self.desc.points.push(Vec3::new(x, y, z));
-                self.desc.normals.push(normal);
+                self.vertex_with_normal(keyword.line, &what)?;
             } else {
-                let p = self.numbers::<3>(v.number, words, &what, fields)?;
-                self.desc.points.push(Vec3::from_array(p));
+                let [x, y, z] = self.numbers::<3>(keyword.line, &what, "x y z")?;
+                self.desc.points.push(Vec3::new(x.value, y.value, z.value));
             }
         }
         let (Ok(p0), Ok(n0), Ok(_)) = (
@@ -658,52 +704,62 @@ impl<'a> Parser<'a> {
             u32::try_from(first_normal),
             u32::try_from(self.desc.points.len()),
         ) else {
-            return Err(self.error(ln.number, format!("`{keyword}`: too many vertices")));
+            return Err(self.error(
+                keyword.line,
+                format!("`{}`: too many vertices", keyword.text),
+            ));
         };
-        for k in 1..n - 1 {
+        self.fan(n, p0, with_normals.then_some(n0), shader);
+        Ok(())
+    }
+
+    /// One vertex `x y z nx ny nz` of a `pp` patch (whose keyword is on `line`).
+    fn vertex_with_normal(&mut self, line: usize, what: &VertexOf<'_>) -> Result<(), LoadError> {
+        let values = self.numbers::<6>(line, what, "x y z nx ny nz")?;
+        let [x, y, z, nx, ny, nz] = values.map(|n| n.value);
+        let normal = Vec3::new(nx, ny, nz);
+        if normal.length_squared() == 0.0 {
+            return Err(self.error(
+                values[3].line,
+                format!("{what}: the normal ({nx} {ny} {nz}) has zero length"),
+            ));
+        }
+        self.desc.points.push(Vec3::new(x, y, z));
+        self.desc.normals.push(normal);
+        Ok(())
+    }
+
+    /// The `n − 2` triangles of a fan around corner 0 of a polygon whose `n` points start at
+    /// `p0` (and its normals, if any, at `n0`).
+    fn fan(&mut self, n: u32, p0: u32, n0: Option<u32>, shader: u32) {
+        for k in 1..n.saturating_sub(1) {
             let corners = [0, k, k + 1];
             self.desc.triangles.push(TriangleDesc {
                 points: corners.map(|c| p0 + c),
                 shader,
-                normals: with_normals.then(|| corners.map(|c| n0 + c)),
+                normals: n0.map(|n0| corners.map(|c| n0 + c)),
             });
         }
-        Ok(())
     }
 
-    /// The vertex count after `p` or `pp` (`keyword`) on line `line`: a whole number, 3 or
-    /// more, alone on the line.
-    fn vertex_count(
-        &self,
-        line: usize,
-        keyword: &str,
-        words: &mut std::str::SplitAsciiWhitespace<'_>,
-    ) -> Result<u32, LoadError> {
-        let count_word = words.next();
-        let extra = words.next();
-        match (count_word.map(str::parse::<u32>), extra) {
-            (Some(Ok(n)), None) if n >= 3 => Ok(n),
-            (Some(Ok(n)), None) => Err(self.error(
-                line,
-                format!("`{keyword}`: a polygon needs at least 3 vertices, found {n}"),
+    /// The vertex count after `p` or `pp`: a whole number, 3 or more.
+    fn vertex_count(&mut self, keyword: Word<'_>) -> Result<u32, LoadError> {
+        let name = keyword.text;
+        let Some(word) = self.value_word() else {
+            let message = format!("`{name}`: expected the number of vertices after `{name}`");
+            return Err(self.cut_short(keyword.line, message));
+        };
+        match word.text.parse::<u32>() {
+            Ok(n) if n >= 3 => Ok(n),
+            Ok(n) => Err(self.error(
+                word.line,
+                format!("`{name}`: a polygon needs at least 3 vertices, found {n}"),
             )),
-            (None, _) => Err(self.error(
-                line,
-                format!("`{keyword}`: expected the number of vertices after `{keyword}`"),
-            )),
-            (Some(_), Some(w)) => Err(self.error(
-                line,
+            Err(_) => Err(self.error(
+                word.line,
                 format!(
-                    "`{keyword}`: expected only the number of vertices, found `{w}` after \
-                         it (vertices go on the following lines)"
-                ),
-            )),
-            (Some(Err(_)), None) => Err(self.error(
-                line,
-                format!(
-                    "`{keyword}`: `{}` is not a number of vertices (a whole number, 3 or \
-                         more)",
-                    count_word.unwrap_or("")
+                    "`{name}`: `{}` is not a number of vertices (a whole number, 3 or more)",
+                    word.text
                 ),
             )),
         }
