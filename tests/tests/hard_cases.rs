@@ -27,6 +27,7 @@ use strahl_core::render::intersect::QueryScratch;
 use strahl_core::render::optics::reflect;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
+use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::mesh::Rng;
@@ -1239,7 +1240,12 @@ fn degenerate_triangles_never_hit_and_are_reported() {
         a.pixels == b.pixels,
         "degenerate triangles changed the image"
     );
-    assert_eq!(a.counts, b.counts);
+    // The work may differ: the extra indices share the walk's mailbox slots differently.
+    let rays = |c: RayCounts| RayCounts {
+        work: Default::default(),
+        ..c
+    };
+    assert_eq!(rays(a.counts), rays(b.counts));
 
     // Loaded from the seed's files: collinear, repeated and equal-after-rounding points.
     let dir = tempfile::tempdir().expect("temporary folder");

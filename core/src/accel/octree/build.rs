@@ -1,19 +1,36 @@
-//! Octree construction: split at the centre, file each primitive in every child it touches.
+//! Octree construction: split cells at their centre where the surface area heuristic says it pays,
+//! best first, within a memory budget; file each primitive in every child it touches.
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a solid by its world bounding box.
+//!
+//! Every leaf is appraised when it is made: its children's lists are computed, and the split's
+//! gain in expected tests per ray, per byte it adds, becomes its priority. Leaves are split in
+//! priority order until the next split would take the tree past [`BYTES_PER_PRIMITIVE`]; a leaf
+//! whose split would not pay (its primitives overlap too much to separate) stays a leaf. The
+//! order depends only on the scene, so every machine builds the same tree.
 
 use super::overlap::triangle_box_overlap;
 use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use alloc::collections::BinaryHeap;
 use alloc::vec::Vec;
+use core::cmp::Reverse;
 use glam::Vec3;
 
-/// Children whose references add up to more than this many times their parent's are not made:
-/// the triangles overlap each other too much for splitting to separate them.
-const MAX_DUPLICATION: usize = 2;
+/// The memory the tree may take, in bytes per primitive given to the build (nodes and leaf
+/// entries together). Splits are made best first until the next would pass it.
+pub const BYTES_PER_PRIMITIVE: usize = 48;
+
+/// The cost of entering a cell, in units of one primitive test (the surface area heuristic's
+/// traversal cost).
+const CELL_COST: f32 = 1.0;
+
+/// Bytes of a node and of a leaf entry.
+const NODE_BYTES: usize = core::mem::size_of::<Node>();
+const ENTRY_BYTES: usize = core::mem::size_of::<u32>();
 
 struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
@@ -24,12 +41,22 @@ struct Builder<'a> {
     /// at the scene's magnitude, so a triangle on a cell boundary is filed on both sides.
     margin: f32,
     nodes: Vec<Node>,
-    indices: Vec<u32>,
-    /// Scratch: the triangle lists of the cells being built, parents before children.
+    /// Per node: its primitives while it is a leaf (`None` once it is split).
+    leaves: Vec<Option<Leaf>>,
+    /// Leaves worth splitting, best first: (priority bits, node).
+    queue: BinaryHeap<(u32, Reverse<u32>)>,
+    /// Bytes of the tree as it stands (8 per node, 4 per leaf entry), and the most it may take.
+    bytes: usize,
+    budget: usize,
+}
+
+/// A leaf of the tree being built: its cell and depth, its primitives, and, when splitting it
+/// would pay, its children's primitive lists.
+struct Leaf {
+    cell: Aabb,
+    depth: u32,
     refs: Vec<u32>,
-    /// Scratch: per triangle of the cell being split, the children it touches (bit per child).
-    masks: Vec<u8>,
-    stats: OctreeStats,
+    children: Option<[Vec<u32>; 8]>,
 }
 
 impl Octree {
@@ -51,144 +78,186 @@ impl Octree {
             max_depth: params.max_depth.min(MAX_DEPTH_LIMIT),
             max_leaf_triangles: params.max_leaf_triangles.max(1),
         };
-        let mut bounds = Aabb::EMPTY;
-        let mut filed = Vec::with_capacity(triangles.len());
-        let mut boxes = Vec::with_capacity(triangles.len());
-        for (i, p) in triangles.iter().enumerate() {
-            let b = Aabb::of_triangle(p);
-            boxes.push(b);
-            if unit_normal(p).is_some() {
-                filed.push(i as u32);
-                bounds.min = bounds.min.min(b.min);
-                bounds.max = bounds.max.max(b.max);
-            }
-        }
-        for (j, b) in solids.iter().enumerate() {
-            match b {
-                Some(b) => {
-                    boxes.push(*b);
-                    filed.push((triangles.len() + j) as u32);
-                    bounds.min = bounds.min.min(b.min);
-                    bounds.max = bounds.max.max(b.max);
-                }
-                None => boxes.push(Aabb::EMPTY),
-            }
-        }
-        if bounds.is_empty() {
-            bounds = Aabb {
-                min: Vec3::ZERO,
-                max: Vec3::ZERO,
-            };
-        }
+        let (filed, boxes, bounds) = filed_primitives(triangles, solids);
         let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
         let mut b = Builder {
             triangles,
             boxes,
             params,
             margin: magnitude * gamma(16),
-            nodes: alloc::vec![Node { first: 0, count: 0 }],
-            indices: Vec::with_capacity(2 * filed.len()),
-            refs: Vec::with_capacity(4 * filed.len()),
-            masks: Vec::with_capacity(filed.len()),
-            stats: OctreeStats {
-                triangles: (triangles.len() + solids.len()) as u32,
-                filed_triangles: filed.len() as u32,
-                ..OctreeStats::default()
-            },
+            nodes: Vec::new(),
+            leaves: Vec::new(),
+            queue: BinaryHeap::new(),
+            bytes: 0,
+            budget: (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET),
         };
-        let n = filed.len();
-        b.refs.extend_from_slice(&filed);
-        drop(filed);
-        b.build_node(0, bounds, (0, n), 0);
-        b.stats.nodes = b.nodes.len() as u32;
-        b.stats.references = b.indices.len() as u32;
-        b.stats.bytes = b.nodes.len() * core::mem::size_of::<Node>()
-            + b.indices.len() * core::mem::size_of::<u32>();
+        let filed_count = filed.len() as u32;
+        b.add_leaf(bounds, 0, filed);
+        while let Some((_, Reverse(node))) = b.queue.pop() {
+            b.split_if_it_fits(node as usize);
+        }
+        let (nodes, indices, mut stats) = b.finish();
+        stats.triangles = (triangles.len() + solids.len()) as u32;
+        stats.filed_triangles = filed_count;
         Octree {
-            nodes: b.nodes,
-            indices: b.indices,
+            nodes,
+            indices,
             bounds,
-            stats: b.stats,
+            stats,
         }
     }
 }
 
-impl Builder<'_> {
-    fn make_leaf(&mut self, node: usize, range: (usize, usize), depth: u32) {
-        let first = self.indices.len() as u32;
-        let count = (range.1 - range.0) as u32;
-        self.indices.extend_from_slice(&self.refs[range.0..range.1]);
-        self.nodes[node] = Node { first, count };
-        self.stats.leaves += 1;
-        if count == 0 {
-            self.stats.empty_leaves += 1;
+/// The smallest budget in bytes, so that small scenes still get a few levels.
+const MIN_BUDGET: usize = 64 * 1024;
+
+/// The primitives to file (non-degenerate triangles, bounded solids), every primitive's box, and
+/// the box around the filed ones.
+fn filed_primitives(
+    triangles: &[[Vec3; 3]],
+    solids: &[Option<Aabb>],
+) -> (Vec<u32>, Vec<Aabb>, Aabb) {
+    let mut bounds = Aabb::EMPTY;
+    let mut filed = Vec::with_capacity(triangles.len() + solids.len());
+    let mut boxes = Vec::with_capacity(triangles.len() + solids.len());
+    for (i, p) in triangles.iter().enumerate() {
+        let b = Aabb::of_triangle(p);
+        boxes.push(b);
+        if unit_normal(p).is_some() {
+            filed.push(i as u32);
+            bounds.min = bounds.min.min(b.min);
+            bounds.max = bounds.max.max(b.max);
         }
-        self.stats.depth = self.stats.depth.max(depth);
-        self.stats.max_leaf_triangles = self.stats.max_leaf_triangles.max(count);
+    }
+    for (j, b) in solids.iter().enumerate() {
+        match b {
+            Some(b) => {
+                boxes.push(*b);
+                filed.push((triangles.len() + j) as u32);
+                bounds.min = bounds.min.min(b.min);
+                bounds.max = bounds.max.max(b.max);
+            }
+            None => boxes.push(Aabb::EMPTY),
+        }
+    }
+    if bounds.is_empty() {
+        bounds = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::ZERO,
+        };
+    }
+    (filed, boxes, bounds)
+}
+
+impl Builder<'_> {
+    /// Appends a leaf over `refs` and queues it if splitting it would pay.
+    fn add_leaf(&mut self, cell: Aabb, depth: u32, refs: Vec<u32>) {
+        let node = self.nodes.len();
+        self.bytes += NODE_BYTES + ENTRY_BYTES * refs.len();
+        self.nodes.push(Node { first: 0, count: 0 });
+        let mut leaf = Leaf {
+            cell,
+            depth,
+            refs,
+            children: None,
+        };
+        if let Some((priority, children)) = self.appraise(&leaf) {
+            leaf.children = Some(children);
+            self.queue.push((priority.to_bits(), Reverse(node as u32)));
+        }
+        self.leaves.push(Some(leaf));
     }
 
-    /// Builds `node` over the triangles `refs[range.0..range.1]`. Children's lists are appended
-    /// to `refs` (one scratch buffer for the whole build) and dropped once they are built.
-    fn build_node(&mut self, node: usize, cell: Aabb, range: (usize, usize), depth: u32) {
-        let n = range.1 - range.0;
-        if n <= self.params.max_leaf_triangles as usize || depth >= self.params.max_depth {
-            self.make_leaf(node, range, depth);
+    /// The children's lists of `leaf` and the priority of splitting it, or `None` if it is too
+    /// small or too deep to split or splitting would not pay.
+    ///
+    /// Surface area heuristic: a ray that enters a cell enters each child with probability 1/4
+    /// (a child's surface is a quarter of its parent's), so splitting turns `n` tests into
+    /// [`CELL_COST`] plus a quarter of the children's entries. The gain, weighted by the chance of
+    /// reaching the cell at all (`4^-depth`), per byte the split adds, is the priority.
+    fn appraise(&mut self, leaf: &Leaf) -> Option<(f32, [Vec<u32>; 8])> {
+        let n = leaf.refs.len();
+        if n <= self.params.max_leaf_triangles as usize || leaf.depth >= self.params.max_depth {
+            return None;
+        }
+        let children = self.split(&leaf.cell, &leaf.refs);
+        let total: usize = children.iter().map(Vec::len).sum();
+        let gain = n as f32 - (CELL_COST + total as f32 / 4.0);
+        if gain <= 0.0 {
+            return None;
+        }
+        let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
+        let reach = libm::powf(0.25, leaf.depth as f32);
+        Some((gain * reach / added as f32, children))
+    }
+
+    /// Splits leaf `node` into eight children unless the tree would outgrow its budget.
+    fn split_if_it_fits(&mut self, node: usize) {
+        let Some(leaf) = self.leaves[node].as_mut() else {
+            return;
+        };
+        let Some(children) = &leaf.children else {
+            return;
+        };
+        let total: usize = children.iter().map(Vec::len).sum();
+        let n = leaf.refs.len();
+        if self.bytes + 8 * NODE_BYTES + ENTRY_BYTES * total > self.budget + ENTRY_BYTES * n {
+            leaf.children = None;
             return;
         }
-        let mid = cell.center();
-        let counts = self.split(&cell, mid, range);
-        let total: usize = counts.iter().sum();
-        let non_empty = counts.iter().filter(|&&c| c != 0).count();
-        let separated = non_empty == 1 || counts.iter().any(|&c| c != 0 && c < n);
-        if !separated || total > MAX_DUPLICATION * n {
-            self.make_leaf(node, range, depth);
+        let Some(Leaf {
+            cell,
+            depth,
+            children: Some(children),
+            ..
+        }) = self.leaves[node].take()
+        else {
             return;
-        }
-        // Lay the children's lists out after everything in use, in child order.
-        let base = self.refs.len();
-        let mut offsets = [0usize; 8];
-        let mut at = base;
-        for (o, &c) in offsets.iter_mut().zip(&counts) {
-            *o = at;
-            at += c;
-        }
-        self.refs.resize(at, 0);
-        let mut fill = offsets;
-        for k in 0..n {
-            let t = self.refs[range.0 + k];
-            let mask = self.masks[k];
-            for (c, f) in fill.iter_mut().enumerate() {
-                if mask & (1 << c) != 0 {
-                    self.refs[*f] = t;
-                    *f += 1;
-                }
-            }
-        }
-        let first = self.nodes.len();
-        self.nodes.resize(first + 8, Node { first: 0, count: 0 });
+        };
+        self.bytes -= ENTRY_BYTES * n;
         self.nodes[node] = Node {
-            first: first as u32,
+            first: self.nodes.len() as u32,
             count: INTERIOR,
         };
-        for c in 0..8 {
-            let child_cell = child_box(&cell, mid, c);
-            let child_range = (offsets[c], offsets[c] + counts[c]);
-            self.build_node(first + c, child_cell, child_range, depth + 1);
+        let mid = cell.center();
+        for (c, refs) in children.into_iter().enumerate() {
+            self.add_leaf(child_box(&cell, mid, c), depth + 1, refs);
         }
-        self.refs.truncate(base);
     }
 
-    /// Decides which children of `cell` each triangle of `refs[range.0..range.1]` touches: bit `c`
-    /// of `masks[k]` for the `k`-th triangle. Returns how many triangles each child gets.
-    fn split(&mut self, cell: &Aabb, mid: Vec3, range: (usize, usize)) -> [usize; 8] {
-        let mut counts = [0usize; 8];
+    /// Lays the leaves' lists out in node order and sums up the statistics.
+    fn finish(self) -> (Vec<Node>, Vec<u32>, OctreeStats) {
+        let mut nodes = self.nodes;
+        let mut indices = Vec::with_capacity(self.bytes / ENTRY_BYTES);
+        let mut stats = OctreeStats::default();
+        for (node, leaf) in nodes.iter_mut().zip(self.leaves) {
+            let Some(leaf) = leaf else { continue };
+            let count = leaf.refs.len() as u32;
+            *node = Node {
+                first: indices.len() as u32,
+                count,
+            };
+            indices.extend_from_slice(&leaf.refs);
+            stats.leaves += 1;
+            stats.empty_leaves += u32::from(count == 0);
+            stats.depth = stats.depth.max(leaf.depth);
+            stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
+        }
+        stats.nodes = nodes.len() as u32;
+        stats.references = indices.len() as u32;
+        stats.bytes = nodes.len() * NODE_BYTES + indices.len() * ENTRY_BYTES;
+        (nodes, indices, stats)
+    }
+
+    /// The primitives of `refs` that each child of `cell` touches.
+    fn split(&mut self, cell: &Aabb, refs: &[u32]) -> [Vec<u32>; 8] {
+        let mid = cell.center();
         let m = self.margin;
-        self.masks.clear();
         let child_boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
-        for k in range.0..range.1 {
-            let t = self.refs[k] as usize;
-            let b = &self.boxes[t];
-            // Which halves of each axis the triangle's box reaches (boundaries count on both).
+        let mut children: [Vec<u32>; 8] = Default::default();
+        for &t in refs {
+            let b = &self.boxes[t as usize];
+            // Which halves of each axis the primitive's box reaches (boundaries count on both).
             let mut lo = [false; 3];
             let mut hi = [false; 3];
             for a in 0..3 {
@@ -196,22 +265,16 @@ impl Builder<'_> {
                 hi[a] = b.max[a] >= mid[a] - m;
             }
             let single = (0..3).all(|a| !(lo[a] && hi[a]));
-            let mut mask = 0u8;
             for (c, cb) in child_boxes.iter().enumerate() {
                 let candidate = (0..3).all(|a| if (c >> a) & 1 == 1 { hi[a] } else { lo[a] });
-                if !candidate {
-                    continue;
-                }
-                // A box on one side of every centre plane lies in one child: it is the triangle's
-                // only candidate and the parent's test already said the triangle touches it.
-                if single || self.touches(cb, t) {
-                    mask |= 1 << c;
-                    counts[c] += 1;
+                // A box on one side of every centre plane lies in one child: it is the
+                // primitive's only candidate and the parent's test already said it touches it.
+                if candidate && (single || self.touches(cb, t as usize)) {
+                    children[c].push(t);
                 }
             }
-            self.masks.push(mask);
         }
-        counts
+        children
     }
 
     /// True if primitive `t` touches the child box `cb` grown by the margin.

@@ -6,9 +6,10 @@
 //!   and addressed by the index of the first. A leaf is a range of [`Octree::indices`], the
 //!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
 //!   not stored but derived from the parent's by halving.
-//! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre and files a triangle in
-//!   every child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by
-//!   its error bound).
+//! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
+//!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
+//!   child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by its
+//!   error bound).
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses, nearest child first, with a fixed-size stack.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
@@ -17,6 +18,7 @@
 //! returns exactly the triangle and `t` that testing every triangle would.
 
 mod build;
+pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod traverse;
 
@@ -35,7 +37,8 @@ pub const MAX_DEPTH_LIMIT: u32 = 20;
 pub struct OctreeParams {
     /// Cells at this depth are never split (clamped to [`MAX_DEPTH_LIMIT`]).
     pub max_depth: u32,
-    /// Cells with at most this many triangles are not split.
+    /// Cells with at most this many primitives are not split (others only where the surface area
+    /// heuristic says it pays and the memory budget allows).
     pub max_leaf_triangles: u32,
 }
 
