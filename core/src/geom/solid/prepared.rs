@@ -307,8 +307,25 @@ impl Solids {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<SolidHit> {
+        let root = self.objects[object as usize];
+        if let PreparedNode::Leaf {
+            shape, placement, ..
+        } = self.nodes[root as usize]
+        {
+            // A shape alone: its first crossing, without collecting spans.
+            let o = placement.point_to_object(ray.origin);
+            let d = placement.vector_to_object(ray.dir);
+            let (t, t_error, face) = shape::first_crossing(&shape, o, d, t_max)?;
+            return Some(SolidHit {
+                t,
+                t_error,
+                leaf: root,
+                face,
+                flip: false,
+            });
+        }
         scratch.spans.clear();
-        self.eval(self.objects[object as usize], ray, scratch);
+        self.eval(root, ray, scratch);
         let front = |b: &Boundary| b.t > b.t_error && b.t.is_finite();
         let first = scratch
             .spans
