@@ -97,12 +97,46 @@ fn bench_reports_the_issue_figures() {
     let text = String::from_utf8_lossy(&out.stdout);
     for needle in [
         "octree build:",
-        "per million triangles",
-        "bytes per triangle",
+        "per million primitives",
+        "bytes per primitive",
         "primary rays, shading off",
     ] {
         assert!(text.contains(needle), "missing {needle:?} in:\n{text}");
     }
+}
+
+#[test]
+fn bench_measures_a_scene_file_and_names_a_bad_one() {
+    let fixture = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/nff/every_entity.nff"
+    );
+    let out = strahl(&["bench", "--scene", fixture, "--size", "16", "--runs", "1"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains(&format!("primitives ({fixture})")),
+        "the report names the scene:\n{text}"
+    );
+    assert!(text.contains("primary rays, shading off"), "{text}");
+    let dir = tempfile::tempdir().expect("temporary folder");
+    let bad = dir.path().join("bad.nff");
+    std::fs::write(&bad, "v\nfrom 0 0 0\nq\n").expect("write the bad scene");
+    let out = strahl(&[
+        "bench",
+        "--scene",
+        &bad.display().to_string(),
+        "--runs",
+        "1",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("bad.nff:"), "the error names the file: {err}");
+    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]

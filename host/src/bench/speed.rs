@@ -1,21 +1,28 @@
 //! `strahl bench`: the performance figures of issue 2, measured in one run on this machine.
 //!
-//! On the generated large scene (at least 100,000 triangles) it reports the octree build time,
-//! octree bytes per triangle, primary rays per second on one core with shading off (closest hit
-//! only), and a full render (Phong, shadows, reflections) on one core for comparison. Each figure
-//! is the median of several runs; ratios are against figures from the same run.
+//! On the generated large scene (at least 100,000 triangles), or on a scene file given with
+//! `--scene` (an SPD scene, say), it reports the octree build time, octree bytes per primitive,
+//! primary rays per second on one core with shading off (closest hit only), and a full render
+//! (the scene's shading) on one core for comparison. Each figure is the median of several runs;
+//! ratios are against figures from the same run.
 
 use super::stats::median;
 use crate::generate;
+use anyhow::Context as _;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::{Octree, OctreeParams};
+use strahl_core::render::intersect::QueryScratch;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
-use strahl_core::scene::{RenderSettings, Scene};
+use strahl_core::scene::{RenderSettings, Scene, SceneDesc};
+use strahl_formats::load::{load_scene, Overrides};
 
 /// What `strahl bench` measures and how often.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct BenchOptions {
+    /// A scene file to measure instead of the generated scene.
+    pub scene: Option<PathBuf>,
     /// Triangles in the generated scene (at least).
     pub triangles: u32,
     /// Image size of the ray-throughput runs (square).
@@ -29,6 +36,7 @@ pub struct BenchOptions {
 impl Default for BenchOptions {
     fn default() -> Self {
         BenchOptions {
+            scene: None,
             triangles: 100_000,
             size: 512,
             runs: 5,
@@ -40,7 +48,9 @@ impl Default for BenchOptions {
 /// The measured figures.
 #[derive(Clone, Debug)]
 pub struct BenchReport {
-    /// Triangles in the scene.
+    /// What was measured: the scene file, or the generated scene.
+    pub scene: String,
+    /// Primitives in the scene (triangles and solids).
     pub triangles: usize,
     /// Median octree build time.
     pub build: Duration,
@@ -54,29 +64,40 @@ pub struct BenchReport {
     pub shaded_time: Duration,
 }
 
+/// The scene to measure at `opts.size` squared, and its name for the report.
+fn scene_desc(opts: &BenchOptions) -> anyhow::Result<(SceneDesc, String)> {
+    let Some(path) = &opts.scene else {
+        let mut desc = generate::large(opts.triangles);
+        desc.settings = RenderSettings {
+            width: opts.size,
+            height: opts.size,
+            ..RenderSettings::default()
+        };
+        return Ok((desc, "generated: strahl generate large".to_string()));
+    };
+    let overrides = Overrides {
+        width: Some(opts.size),
+        height: Some(opts.size),
+        ..Overrides::default()
+    };
+    let loaded = load_scene(path, &overrides)?;
+    Ok((loaded.desc, path.display().to_string()))
+}
+
 /// Runs the benchmark.
 ///
 /// # Errors
-/// A [`SceneError`](strahl_core::scene::error::SceneError) if the generated scene is invalid for the
-/// options (it is not for any options the command line accepts).
-pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error::SceneError> {
-    let mut desc = generate::large(opts.triangles);
-    desc.settings = RenderSettings {
-        width: opts.size,
-        height: opts.size,
-        ..RenderSettings::default()
-    };
-    let tris: Vec<[glam::Vec3; 3]> = desc
-        .triangles
-        .iter()
-        .map(|t| t.points.map(|i| desc.points[i as usize]))
-        .collect();
+/// The scene file's load error, or the scene's [`SceneError`](strahl_core::scene::error::SceneError)
+/// (the generated scene is valid for any options the command line accepts).
+pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
+    let (desc, name) = scene_desc(opts)?;
+    let scene = Scene::build(&desc, &opts.octree).with_context(|| name.clone())?;
     let runs = opts.runs.max(1);
 
     let mut builds = Vec::with_capacity(runs);
     let mut build = || {
         let start = Instant::now();
-        let tree = Octree::build(&tris, &opts.octree);
+        let tree = Octree::build_mixed(&scene.triangle_points, scene.solids.bounds(), &opts.octree);
         builds.push(start.elapsed());
         tree
     };
@@ -87,10 +108,10 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error
     }
     let stats = *octree.stats();
 
-    let scene = Scene::build(&desc, &opts.octree)?;
     let (w, h) = (opts.size, opts.size);
     let mut primary = Vec::with_capacity(runs);
     let mut hits = 0u64;
+    let mut scratch = QueryScratch::default();
     for _ in 0..runs {
         hits = 0;
         let start = Instant::now();
@@ -99,8 +120,7 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error
                 let ray = scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5);
                 hits += u64::from(
                     scene
-                        .octree
-                        .closest_hit(&scene.triangle_points, &ray, f32::INFINITY)
+                        .closest_hit(&ray, f32::INFINITY, &mut scratch)
                         .is_some(),
                 );
             }
@@ -124,7 +144,8 @@ pub fn run(opts: &BenchOptions) -> Result<BenchReport, strahl_core::scene::error
     }
     let shaded_time = median(shaded);
     Ok(BenchReport {
-        triangles: tris.len(),
+        scene: name,
+        triangles: scene.triangle_points.len() + scene.solids.len(),
         build: median(builds),
         stats,
         primary_rays_per_s: (w * h) as f64 / median(primary).as_secs_f64(),
@@ -137,20 +158,16 @@ impl std::fmt::Display for BenchReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let s = &self.stats;
         let per_million = self.build.as_secs_f64() * 1e6 / self.triangles as f64;
+        writeln!(f, "scene: {} primitives ({})", self.triangles, self.scene)?;
         writeln!(
             f,
-            "scene: {} triangles (generated: strahl generate large)",
-            self.triangles
-        )?;
-        writeln!(
-            f,
-            "octree build: {:.3} s median ({:.3} s per million triangles)",
+            "octree build: {:.3} s median ({:.3} s per million primitives)",
             self.build.as_secs_f64(),
             per_million
         )?;
         writeln!(
             f,
-            "octree: {} nodes, {} leaves ({} empty), depth {}, {:.1} triangles per leaf (max {}), {} bytes = {:.1} bytes per triangle",
+            "octree: {} nodes, {} leaves ({} empty), depth {}, {:.1} primitives per leaf (max {}), {} bytes = {:.1} bytes per primitive",
             s.nodes,
             s.leaves,
             s.empty_leaves,
@@ -167,7 +184,7 @@ impl std::fmt::Display for BenchReport {
         )?;
         write!(
             f,
-            "full render (Phong, shadows, reflections), 1 core: {:.3} s, {:.2} M rays/s median",
+            "full render (the scene's shading), 1 core: {:.3} s, {:.2} M rays/s median",
             self.shaded_time.as_secs_f64(),
             self.shaded_rays_per_s / 1e6
         )

@@ -19,6 +19,9 @@ pub struct BenchArgs {
     /// Another benchmark instead of the core figures.
     #[command(subcommand)]
     pub command: Option<BenchCommand>,
+    /// Measure this scene file (any format `strahl render` reads) instead of the generated one.
+    #[arg(long, value_name = "PATH")]
+    pub scene: Option<PathBuf>,
     /// Least number of triangles of the generated scene.
     #[arg(long, value_name = "N", default_value_t = 100_000,
           value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
@@ -109,6 +112,7 @@ impl BenchArgs {
     /// The options of the core figures.
     pub fn options(&self) -> BenchOptions {
         BenchOptions {
+            scene: self.scene.clone(),
             triangles: self.triangles,
             size: self.size,
             runs: self.runs as usize,
@@ -157,8 +161,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
         Some(BenchCommand::Scaling(a)) => scaling::run(&a.options()),
         Some(BenchCommand::Accuracy(a)) => accuracy::run(&a.options()),
         None => {
-            let report = speed::run(&args.options())
-                .map_err(|e| anyhow::anyhow!("generated benchmark scene: {e}"))?;
+            let report = speed::run(&args.options())?;
             writeln!(std::io::stdout().lock(), "{report}")?;
             Ok(())
         }

@@ -54,8 +54,8 @@ fn first_crossing_is_the_first_front_end_of_the_span() {
                 _ => rng.next_f32() * 4.0 * scale,
             };
             let want = by_span(shape, o, d, t_max);
-            let got = first_crossing(shape, o, d, t_max)
-                .map(|(t, e, f)| (t.to_bits(), e.to_bits(), f));
+            let got =
+                first_crossing(shape, o, d, t_max).map(|(t, e, f)| (t.to_bits(), e.to_bits(), f));
             assert_eq!(got, want, "{shape:?} o {o:?} d {d:?} t_max {t_max}");
             hits += usize::from(got.is_some());
         }
