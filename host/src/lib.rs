@@ -10,7 +10,7 @@
 //! | scenes | [`generate`] | procedural scenes (the demo room, the large benchmark scene), built with core's `scene::mesh` |
 //! | cluster | [`cluster`]: master, scheduler, links, local and simulated workers, and `executor` (which workers a render uses, and starting them) | rendering through workers |
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
-//! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `stats` | `strahl bench` and its studies |
+//! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `peers/`, `stats` | `strahl bench` and its studies |
 //! | base | [`util`]: `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
 //!
 //! Dependencies point one way, from the interface down:

@@ -6,13 +6,17 @@
 //!   over TCP and extended by the discrete-event model.
 //! - [`accuracy`]: `strahl bench accuracy`, what each quality knob buys against a converged
 //!   reference and what it costs in time; writes `docs/accuracy.md` and its plot.
+//! - [`peers`]: `strahl bench peers`, Strahl against POV-Ray 3.7 on the SPD scenes (tracing
+//!   time on one thread, the whole process on two, rays, image difference), side by side.
 //! - `stats`: the median that every figure above is taken from.
 //!
 //! Each benchmark takes a plain options struct ([`BenchOptions`],
-//! [`ScalingOptions`](scaling::ScalingOptions), [`AccuracyOptions`](accuracy::AccuracyOptions));
+//! [`ScalingOptions`](scaling::ScalingOptions), [`AccuracyOptions`](accuracy::AccuracyOptions),
+//! [`PeersOptions`](peers::PeersOptions));
 //! their clap types and the dispatch are the command line's (`cli::bench`).
 
 pub mod accuracy;
+pub mod peers;
 pub mod scaling;
 pub mod speed;
 mod stats;

@@ -1,16 +1,20 @@
 //! `strahl bench`: its command line and the dispatch to the benchmarks.
 //!
-//! The clap types of `strahl bench` ([`BenchArgs`]), `bench scaling` ([`ScalingArgs`]) and
-//! `bench accuracy` ([`AccuracyArgs`]) live here, like every other clap type; each becomes the
-//! plain options struct its benchmark in [`crate::bench`] takes, so the benchmarks name no clap.
+//! The clap types of `strahl bench` ([`BenchArgs`]), `bench scaling` ([`ScalingArgs`]),
+//! `bench accuracy` ([`AccuracyArgs`]) and `bench peers` ([`PeersArgs`]) live here, like every
+//! other clap type; each becomes the plain options struct its benchmark in [`crate::bench`]
+//! takes, so the benchmarks name no clap.
 
 use crate::bench::accuracy::{self, parse_size, AccuracyOptions, ImageSize};
+use crate::bench::peers::{self, PeersOptions, DEFAULT_SCENES};
 use crate::bench::scaling::{self, ScalingOptions};
 use crate::bench::speed::{self, BenchOptions};
 use crate::cluster::job::WINDOW;
 use std::io::Write as _;
 use std::path::PathBuf;
 use strahl_core::accel::octree::{OctreeParams, MAX_DEPTH_LIMIT};
+use strahl_core::scene::settings::MAX_BOUNCES;
+use strahl_core::scene::MAX_IMAGE_SIDE;
 
 /// Arguments of `strahl bench`.
 #[derive(Debug, clap::Args)]
@@ -53,6 +57,9 @@ pub enum BenchCommand {
     /// What accuracy costs in time: each quality knob swept alone against a converged
     /// reference (RMSE, PSNR, SSIM, median time), written to docs/accuracy.md with a plot.
     Accuracy(AccuracyArgs),
+    /// Strahl against POV-Ray 3.7 (`povray`, Debian's package) on the SPD scenes: tracing time
+    /// on one thread, the whole process on two, rays, image difference, side-by-side pictures.
+    Peers(PeersArgs),
 }
 
 /// Arguments of `strahl bench scaling`.
@@ -108,6 +115,35 @@ pub struct AccuracyArgs {
     pub quick: bool,
 }
 
+/// Arguments of `strahl bench peers`.
+#[derive(Debug, clap::Args)]
+pub struct PeersArgs {
+    /// Folder of scene pairs: X.nff for Strahl beside X.pov for POV-Ray.
+    #[arg(long, value_name = "DIR", default_value = DEFAULT_SCENES)]
+    pub scenes: PathBuf,
+    /// Only these scenes (names without extension, comma-separated) [default: every pair].
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Side of the square images.
+    #[arg(long, value_name = "PIXELS", default_value_t = 512,
+          value_parser = clap::value_parser!(u32).range(8..=i64::from(MAX_IMAGE_SIDE)))]
+    pub size: u32,
+    /// Rounds per scene, each running both tracers (the medians are reported).
+    #[arg(long, value_name = "N", default_value_t = 3,
+          value_parser = clap::value_parser!(u32).range(1..=100))]
+    pub runs: u32,
+    /// Strahl's cap on reflection and refraction bounces (POV-Ray keeps its scene's
+    /// max_trace_level, 5 unless the scene sets one).
+    #[arg(long, value_name = "N", default_value_t = 5,
+          value_parser = clap::value_parser!(u32).range(0..=i64::from(MAX_BOUNCES)))]
+    pub depth: u32,
+    /// Put the report between the `bench peers` markers of this Markdown file (adding a section
+    /// with them if absent); the side-by-side pictures go to peers/ beside it [default: only
+    /// print the tables, pictures to docs/peers/].
+    #[arg(long, value_name = "FILE")]
+    pub write_docs: Option<PathBuf>,
+}
+
 impl BenchArgs {
     /// The options of the core figures.
     pub fn options(&self) -> BenchOptions {
@@ -152,6 +188,20 @@ impl AccuracyArgs {
     }
 }
 
+impl PeersArgs {
+    /// The options of the comparison with POV-Ray.
+    pub fn options(&self) -> PeersOptions {
+        PeersOptions {
+            scenes: self.scenes.clone(),
+            only: self.only.clone(),
+            size: self.size,
+            runs: self.runs,
+            depth: self.depth,
+            write_docs: self.write_docs.clone(),
+        }
+    }
+}
+
 /// Runs `strahl bench` (the core figures, printed on stdout) or the benchmark it names.
 ///
 /// # Errors
@@ -160,6 +210,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<()> {
     match &args.command {
         Some(BenchCommand::Scaling(a)) => scaling::run(&a.options()),
         Some(BenchCommand::Accuracy(a)) => accuracy::run(&a.options()),
+        Some(BenchCommand::Peers(a)) => peers::run(&a.options()),
         None => {
             let report = speed::run(&args.options())?;
             writeln!(std::io::stdout().lock(), "{report}")?;

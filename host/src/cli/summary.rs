@@ -3,6 +3,7 @@
 //! [`RenderSummary`] is that line (its `Display`); [`RenderStats`] is the same render, with the
 //! per-worker reports of [`crate::cluster::report`], as the JSON `--stats-json` writes.
 
+pub use crate::util::units::format_bytes;
 use crate::util::units::format_ray_rate;
 use std::fmt;
 use std::path::PathBuf;
@@ -37,21 +38,6 @@ pub struct RenderSummary {
     pub workers: usize,
     /// The image file written.
     pub output: PathBuf,
-}
-
-/// `bytes` as a short human size: `512 B`, `3.4 KiB`, `1.2 MiB`, `2.0 GiB`.
-pub fn format_bytes(bytes: usize) -> String {
-    const KIB: f64 = 1024.0;
-    let b = bytes as f64;
-    if b < KIB {
-        format!("{bytes} B")
-    } else if b < KIB * KIB {
-        format!("{:.1} KiB", b / KIB)
-    } else if b < KIB * KIB * KIB {
-        format!("{:.1} MiB", b / (KIB * KIB))
-    } else {
-        format!("{:.1} GiB", b / (KIB * KIB * KIB))
-    }
 }
 
 impl fmt::Display for RenderSummary {

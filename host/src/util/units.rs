@@ -1,5 +1,5 @@
 //! Quantities as short text for people: ray rates in the progress bar, the summary and the
-//! worker table.
+//! worker table; sizes in bytes in the summary and `bench peers`.
 
 /// `rays` traced in `secs` seconds, as a short rate such as `2.15 M rays/s`.
 pub fn format_ray_rate(rays: u64, secs: f64) -> String {
@@ -15,6 +15,21 @@ pub fn format_ray_rate(rays: u64, secs: f64) -> String {
         format!("{:.1} k rays/s", rate / 1e3)
     } else {
         format!("{rate:.0} rays/s")
+    }
+}
+
+/// `bytes` as a short human size: `512 B`, `3.4 KiB`, `1.2 MiB`, `2.0 GiB`.
+pub fn format_bytes(bytes: usize) -> String {
+    const KIB: f64 = 1024.0;
+    let b = bytes as f64;
+    if b < KIB {
+        format!("{bytes} B")
+    } else if b < KIB * KIB {
+        format!("{:.1} KiB", b / KIB)
+    } else if b < KIB * KIB * KIB {
+        format!("{:.1} MiB", b / (KIB * KIB))
+    } else {
+        format!("{:.1} GiB", b / (KIB * KIB * KIB))
     }
 }
 
