@@ -128,7 +128,7 @@ mod tests {
             "work": {"intersection_tests": 120, "octree_cells": 60, "tests_per_ray": 10.0,
                      "cells_per_ray": 5.0},
             "octree": {"nodes": 9, "leaves": 8, "depth": 3, "references": 40, "bytes": 4096,
-                       "bytes_per_triangle": 12.5}}"#;
+                       "bytes_per_primitive": 12.5}}"#;
         let r = parse_stats(json).expect("statistics");
         assert_eq!(r.rays.refracted, 2);
         assert_eq!(r.work.tests_per_ray, Some(10.0));
