@@ -2,9 +2,9 @@
 
 use glam::Vec3;
 use std::path::{Path, PathBuf};
-use strahl_core::scene::RenderSettings;
+use strahl_core::scene::{Blend, RenderSettings};
 use strahl_host::formats::error::LoadError;
-use strahl_host::formats::load::{load_config_scene, Overrides};
+use strahl_host::formats::load::{load_config_scene, load_scene, Overrides};
 
 const ROOM: &str = "_SHD 0.1 0.1 0.1 0.5 0.5 0.5 0 0 0 1 0\n_LIGHT 0 0 10 1 1 1 1 1\n\
                     _PT 0 0 0\n_PT 1 0 0\n_PT 0 1 0\n_TR 0 1 2 0\n";
@@ -323,4 +323,40 @@ fn data_errors_name_the_data_line() {
         msg.starts_with(&format!("{}: no shader", data.display())),
         "{msg}"
     );
+}
+
+#[test]
+fn nff_shaders_add_and_the_seed_formats_keep_the_seed_rule() {
+    let repo = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let blends = |path: &Path| -> Vec<Blend> {
+        let s = load_scene(path, &Overrides::default())
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert!(!s.desc.shaders.is_empty(), "{}", path.display());
+        s.desc.shaders.iter().map(|sh| sh.blend).collect()
+    };
+    let nff = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/nff/every_entity.nff");
+    assert!(blends(&nff).iter().all(|&b| b == Blend::Additive));
+    // The seed's configuration and data files, an OBJ converted by `strahl convert`, and FART
+    // scenes.
+    let dir = tempfile::tempdir().expect("tempdir");
+    strahl_host::formats::convert::convert_obj(
+        &repo.join("scenes/fart/pyramid.obj"),
+        &dir.path().join("PYRAMID.txt"),
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
+    let mut seed = vec![
+        repo.join("scenes/room/raytracer.cfg"),
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/seed/raytracer.cfg"),
+        dir.path().join("raytracer.cfg"),
+    ];
+    for name in ["die", "glass", "mirrors", "ring"] {
+        seed.push(repo.join("scenes/fart").join(format!("{name}.fart")));
+    }
+    for path in seed {
+        assert!(
+            blends(&path).iter().all(|&b| b == Blend::Share),
+            "{}",
+            path.display()
+        );
+    }
 }

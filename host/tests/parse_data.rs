@@ -3,7 +3,7 @@
 use glam::Vec3;
 use proptest::prelude::*;
 use std::path::Path;
-use strahl_core::scene::{Light, Shader, TriangleDesc};
+use strahl_core::scene::{Blend, Light, Shader, TriangleDesc};
 use strahl_host::formats::datafile::{parse_data, read_data, SceneData};
 use strahl_host::formats::error::LoadError;
 
@@ -57,6 +57,7 @@ fn every_record_is_read() {
             specular: Vec3::new(0.7, 0.8, 0.9),
             shininess: 20.0,
             reflection: 0.5,
+            blend: Blend::Share,
         }]
     );
     assert_eq!(

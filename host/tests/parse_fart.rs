@@ -9,7 +9,7 @@ use strahl_core::math::transform::Transform;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::camera::Camera;
-use strahl_core::scene::{Scene, SceneDesc, Shader};
+use strahl_core::scene::{Blend, Scene, SceneDesc, Shader};
 use strahl_core::Vec3;
 use strahl_host::formats::error::LoadError;
 use strahl_host::formats::fart::{load_fart, load_fart_source};
@@ -119,6 +119,7 @@ const DEFAULT: Shader = Shader {
     reflection: 0.0,
     transparency: 0.0,
     ior: 1.0,
+    blend: Blend::Share,
 };
 
 // ---- good input ----
@@ -260,6 +261,7 @@ fn material_mapping_and_defaults() -> TestResult {
             reflection: 0.3,
             transparency: 0.5,
             ior: 1.5,
+            blend: Blend::Share,
         }
     );
     assert_eq!(leaf(&desc, 1).2, DEFAULT);

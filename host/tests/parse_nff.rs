@@ -10,7 +10,7 @@ use strahl_core::math::transform::Transform;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
-use strahl_core::scene::{Light, Scene, SceneDesc, TriangleDesc};
+use strahl_core::scene::{Blend, Light, Scene, SceneDesc, TriangleDesc};
 use strahl_host::formats::error::LoadError;
 use strahl_host::formats::nff::{cone_transform, load_nff, parse_nff, shader_from_nff};
 
@@ -188,6 +188,9 @@ fn each_entity_maps_to_exact_scene_values() {
     let sh0 = desc.shaders[0];
     assert_eq!(sh0, shader_from_nff(c0, 0.6, 0.3, 20.0, 0.0, 1.0));
     assert_eq!(sh0.ambient, c0 * (1.0f32 - 0.6 - 0.3 - 0.0));
+    // NFF's material model is additive: every `f` shades by local + Ks · reflected + T · refracted.
+    assert_eq!(sh0.blend, Blend::Additive);
+    assert!(desc.shaders.iter().all(|sh| sh.blend == Blend::Additive));
     assert_eq!(sh0.diffuse, c0 * 0.6);
     assert_eq!(sh0.specular, Vec3::splat(0.3));
     assert_eq!(

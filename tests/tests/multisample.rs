@@ -9,7 +9,7 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_image;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
-use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
+use strahl_core::scene::{Blend, Light, RenderSettings, Scene, SceneDesc, Shader};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
 
@@ -26,6 +26,7 @@ fn material(ambient: f32, diffuse: f32, reflection: f32, transparency: f32) -> S
         reflection,
         transparency,
         ior: 1.5,
+        blend: Blend::Share,
     }
 }
 

@@ -16,7 +16,7 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::error::SceneError;
-use strahl_core::scene::SceneDesc;
+use strahl_core::scene::{Blend, SceneDesc};
 use strahl_core::wire::error::ProtocolError;
 use strahl_core::wire::frame::{DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::wire::message::{
@@ -1173,6 +1173,19 @@ fn scene_survives_chunking_and_reassembly() {
     other.settings.width += 1;
     let other = SceneBlob::encode(&other, &params).expect("encodes");
     assert_ne!(other.digest, blob.digest);
+}
+
+#[test]
+fn shader_blend_travels_with_the_scene() {
+    let (desc, params, share) = room_blob();
+    assert!(desc.shaders.iter().all(|sh| sh.blend == Blend::Share));
+    let mut additive = desc.clone();
+    additive.shaders[0].blend = Blend::Additive;
+    let blob = SceneBlob::encode(&additive, &params).expect("encodes");
+    assert_ne!(blob.digest, share.digest, "the blend is part of the scene");
+    let bundle = decode_bundle(&blob.bytes).expect("the bundle decodes");
+    assert_eq!(bundle.desc.shaders[0].blend, Blend::Additive);
+    assert_eq!(bundle.desc, additive);
 }
 
 #[test]

@@ -4,13 +4,16 @@
 //! A path starts at a primary ray. At each hit the local colour is
 //! `ambient · visible + Σ lights visibility · amount · colour · (diffuse · N·L + specular · max(0, R·V)^shininess)`
 //! (a light contributes only where `N·L > 0`; `visible` is the share of ambient-occlusion rays that
-//! escape, 1 with occlusion off), and the surface's colour is
-//! `(1 − r − t) · local + r · reflected + t · refracted`. A reflected or refracted ray is traced
-//! only while its switch is on, the path weight (product of the shares along it) stays at or above
-//! the cut-off, and the depth cap is not reached; a share not traced goes to the local colour.
+//! escape, 1 with occlusion off), and the surface's colour follows its shader's [`Blend`]:
+//! `(1 − r − t) · local + r · reflected + t · refracted` for the seed's [`Share`](Blend::Share),
+//! `local + r · reflected + t · refracted` for NFF's [`Additive`](Blend::Additive). A reflected or
+//! refracted ray is traced only while its switch is on, the path weight (product of the shares
+//! along it) stays at or above the cut-off, and the depth cap is not reached. A share not traced goes to the local colour under
+//! `Share` and adds nothing under `Additive` (as POV-Ray drops a reflection under `adc_bailout`).
 //! Total internal reflection sends the refracted share along the mirror ray. Rays that cannot
-//! change a pixel are not made: no lighting where the local share is 0, no shadow ray towards a
-//! light behind the surface, no occlusion rays for a shader without ambient colour.
+//! change a pixel are not made: no lighting where the local share is 0 (a perfect `Share`
+//! mirror), no shadow ray towards a light behind the surface, no occlusion rays for a shader
+//! without ambient colour.
 //!
 //! [`RenderSettings::skip_effects`](crate::scene::RenderSettings) off turns those shortcuts into
 //! rays whose answers are dropped (shadow rays to every light, mirror and refraction rays at every
@@ -31,7 +34,7 @@ use crate::scene::effects::{
     highlight_matters, mirror_ray_matters, occlusion_matters, refraction_ray_matters,
     shadow_ray_matters,
 };
-use crate::scene::Scene;
+use crate::scene::{Blend, Scene};
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -286,8 +289,8 @@ fn refracted(scene: &Scene, s: &Surface, d: Vec3, media: &Media) -> Option<(Vec3
     Some((dir, next))
 }
 
-/// How a hit splits the path's colour: the mirror ray's share, the refracted ray (direction and
-/// the media it enters) with its share, and what is left for the local colour.
+/// How a hit weighs the path's colour: the mirror ray's share, the refracted ray (direction and
+/// the media it enters) with its share, and the local colour's weight.
 struct Split {
     mirror_share: f32,
     refraction: Option<(Vec3, Media)>,
@@ -344,7 +347,9 @@ pub fn trace(
 }
 
 /// The shares of a hit: the mirror ray, unless its share cannot matter; the refracted ray
-/// likewise, with total internal reflection adding the refracted share to the mirror ray.
+/// likewise, with total internal reflection adding the refracted share to the mirror ray. The
+/// local share is what the traced rays leave for [`Blend::Share`], and always 1 for
+/// [`Blend::Additive`] (a ray not traced then adds nothing).
 fn split(scene: &Scene, s: &Surface, d: Vec3, p: &Pending) -> Split {
     let settings = &scene.settings;
     let sh = &scene.shaders[s.shader];
@@ -363,11 +368,15 @@ fn split(scene: &Scene, s: &Surface, d: Vec3, p: &Pending) -> Split {
         }
     }
     let refract_share = if refraction.is_some() { tr } else { 0.0 };
+    let local_share = match sh.blend {
+        Blend::Share => 1.0 - mirror_share - refract_share,
+        Blend::Additive => 1.0,
+    };
     Split {
         mirror_share,
         refraction,
         refract_share,
-        local_share: 1.0 - mirror_share - refract_share,
+        local_share,
     }
 }
 

@@ -27,6 +27,6 @@ pub mod prepared;
 pub mod settings;
 pub mod validate;
 
-pub use model::{Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
+pub use model::{Blend, Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
 pub use prepared::Scene;
 pub use settings::{RenderSettings, MAX_AMBIENT_OCCLUSION, MAX_SAMPLES};

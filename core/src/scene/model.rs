@@ -10,8 +10,24 @@ use glam::Vec3;
 /// The largest image side, in pixels, that a scene accepts.
 pub const MAX_IMAGE_SIDE: u32 = 32768;
 
-/// A Phong material (`_SHD`): colours per channel in `[0, 1]`, a shininess exponent and the share
-/// of reflected colour.
+/// How a surface adds up its local colour and the colours its mirror and refracted rays bring back
+/// (`r` is [`Shader::reflection`], `t` [`Shader::transparency`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub enum Blend {
+    /// The seed's rule, for its data files, FART scenes and OBJ materials: the shares split the
+    /// colour, `(1 − r − t)·local + r·reflected + t·refracted`. The share of a ray that is not
+    /// traced (under the cut-off, past the depth cap, its switch off) goes to the local colour.
+    #[default]
+    Share,
+    /// NFF's rule (NFF.TXT: "it is not required that Kd + Ks == 1"), which POV-Ray's
+    /// `reflection` and SPD's `.pov` files follow as well: `local + r·reflected + t·refracted`,
+    /// the local colour never scaled down. A ray that is not traced adds nothing, as in POV-Ray,
+    /// which drops a reflection whose weight is under `adc_bailout`.
+    Additive,
+}
+
+/// A Phong material (`_SHD`): colours per channel in `[0, 1]`, a shininess exponent, the shares
+/// of reflected and transmitted colour and how they add up ([`Blend`]).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Shader {
     /// Ambient colour, added regardless of lights.
@@ -22,26 +38,33 @@ pub struct Shader {
     pub specular: Vec3,
     /// Phong exponent.
     pub shininess: f32,
-    /// Reflection-Amount `r`: colour = (1 − r − t)·local + r·reflected + t·refracted.
+    /// Reflection-Amount `r`: the weight of the mirror ray's colour. With [`Blend::Share`]
+    /// colour = (1 − r − t)·local + r·reflected + t·refracted; with [`Blend::Additive`]
+    /// colour = local + r·reflected + t·refracted.
     pub reflection: f32,
-    /// Transparency `t`: the share of colour seen through the surface (0 for the seed's shaders).
+    /// Transparency `t`: the weight of the colour seen through the surface (0 for the seed's
+    /// shaders).
     pub transparency: f32,
     /// Index of refraction of the material behind the surface (1 for the seed's shaders).
     pub ior: f32,
+    /// How the local, reflected and refracted colours add up: [`Blend::Share`] (the seed's rule)
+    /// for every format but NFF, whose reader sets [`Blend::Additive`].
+    pub blend: Blend,
 }
 
 /// The range of a shader's reflection and of its transparency: shares of the colour.
 pub const SHARE: RangeInclusive<f32> = 0.0..=1.0;
 
 /// Whether a reflection and a transparency are shares that fit together: each in [`SHARE`], and
-/// at most 1 together (the rest is the local colour). Readers check it where they can name
-/// the line; [`SceneDesc::validate`] checks it for every scene.
+/// at most 1 together (with [`Blend::Share`] the rest is the local colour; [`Blend::Additive`]
+/// shaders keep the same bound, which the NFF reader checks as `Ks + T <= 1`). Readers check it
+/// where they can name the line; [`SceneDesc::validate`] checks it for every scene.
 pub fn shares_fit(reflection: f32, transparency: f32) -> bool {
     SHARE.contains(&reflection) && SHARE.contains(&transparency) && reflection + transparency <= 1.0
 }
 
 impl Shader {
-    /// An opaque Phong shader with the seed's fields.
+    /// An opaque Phong shader with the seed's fields and the seed's [`Blend::Share`].
     pub fn phong(
         ambient: Vec3,
         diffuse: Vec3,
@@ -57,6 +80,7 @@ impl Shader {
             reflection,
             transparency: 0.0,
             ior: 1.0,
+            blend: Blend::Share,
         }
     }
 }

@@ -9,7 +9,7 @@
 //! | `v` block: `from`, `at`, `up`, `angle`, `hither`, `resolution` | [`Camera::LookAt`] with `angle` as the vertical field of view; the image size; `hither` is read and ignored |
 //! | `b r g b` | the background colour |
 //! | `l x y z [r g b]` | a shadow-casting point light, white unless given, amount `1/√n` for `n` lights (as SPD's POV-Ray files) |
-//! | `f r g b Kd Ks Shine T ior` | a [`Shader`] for the primitives that follow (see [`shader_from_nff`]) |
+//! | `f r g b Kd Ks Shine T ior` | a [`Shader`] for the primitives that follow, with NFF's additive [`Blend`] (see [`shader_from_nff`]) |
 //! | `c bx by bz br ax ay az ar` | a cone frustum [`Shape::Cylinder`] from base to apex, **capped** (NFF's is open) |
 //! | `s x y z r` | a [`Shape::Sphere`] |
 //! | `p n` + `n` vertices `x y z` | a convex polygon, split into a fan of `n − 2` triangles (flat: its points are its own) |
@@ -23,6 +23,11 @@
 //! and apex on two lines below it. Numbers are never keywords, so a record ends where its count
 //! is reached; a keyword before that cuts it short (an error), and a number where a keyword is
 //! expected is an error too. A line whose first word starts with `#` is a comment.
+//!
+//! NFF's material model is additive (NFF.TXT: "it is not required that Kd + Ks == 1"): a
+//! surface's colour is its local colour plus Ks times the reflected colour plus T times the
+//! transmitted colour ([`Blend::Additive`]), as POV-Ray renders SPD's `.pov` files. The seed's
+//! formats keep the seed's rule, which scales the local colour down by `1 − Ks − T`.
 //!
 //! Render settings other than the image size and background keep Strahl's defaults (SPD's own
 //! rules trace at most 5 bounces without a weight cut-off; `--max-depth 5` comes closer).
@@ -38,7 +43,7 @@ use std::path::Path;
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::transform::Transform;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
-use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
+use strahl_core::scene::{Blend, Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
 
 /// Reads the NFF file at `path` into a validated scene.
 ///
@@ -79,7 +84,11 @@ pub fn parse_nff(path: &Path, text: &str) -> Result<SceneDesc, LoadError> {
 ///   SPD writes 0 there);
 /// - ambient = colour · max(0, 1 − Kd − Ks − T). NFF has no ambient term; SPD's generators pass
 ///   one to their POV-Ray output but not to NFF, and this rule gives the `ambient` of every SPD
-///   `.pov` file (0.2 for the sphereflake's floor, 0 elsewhere).
+///   `.pov` file (0.2 for the sphereflake's floor, 0 elsewhere);
+/// - blend = [`Blend::Additive`]: colour = local + Ks · reflected + T · transmitted, NFF's model
+///   ("it is not required that Kd + Ks == 1") and POV-Ray's, whose `reflection` adds the mirror
+///   colour without dimming the rest. A mirror or refracted ray under the cut-off or past the
+///   depth cap adds nothing.
 pub fn shader_from_nff(colour: Vec3, kd: f32, ks: f32, shine: f32, t: f32, ior: f32) -> Shader {
     Shader {
         ambient: colour * (1.0 - kd - ks - t).max(0.0),
@@ -89,6 +98,7 @@ pub fn shader_from_nff(colour: Vec3, kd: f32, ks: f32, shine: f32, t: f32, ior: 
         reflection: ks,
         transparency: t,
         ior: if t > 0.0 { ior } else { 1.0 },
+        blend: Blend::Additive,
     }
 }
 

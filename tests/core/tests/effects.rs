@@ -17,7 +17,7 @@ use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::render::{render_image, render_line};
 use strahl_core::scene::camera::{Camera, LookAtCamera};
-use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core::scene::{Blend, Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
 
 /// Image size of the small crafted scenes.
 const W: u32 = 16;
@@ -39,6 +39,7 @@ fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {
         reflection,
         transparency: 0.0,
         ior: 1.0,
+        blend: Blend::Share,
     }
 }
 
@@ -464,6 +465,33 @@ fn perfect_mirror_has_no_local_colour_and_sends_no_shadow_rays() {
     );
 }
 
+#[test]
+fn additive_perfect_mirror_is_lit_and_skipping_still_changes_no_pixel() {
+    // NFF's rule: the mirror keeps its whole local colour, so its hits are lit (shadow rays) and
+    // only the walls' zero-share mirror rays and the opaque surfaces' refraction rays are left
+    // out with skipping on.
+    let mut desc = mirror_before_wall();
+    desc.shaders[1].blend = Blend::Additive;
+    let m = mirror_pixels();
+    let (img, c) = render(&desc);
+    assert_eq!(c.reflection, m, "{c:?}");
+    assert_eq!(c.shadow, WH + m, "the mirror's hits are lit too: {c:?}");
+    let (share, _) = render(&mirror_before_wall());
+    let centre = (H / 2 * W + W / 2) as usize;
+    assert!(
+        (0..3).all(|k| img[centre].0[k] > share[centre].0[k]),
+        "the local colour is added: {:?} against {:?}",
+        img[centre],
+        share[centre]
+    );
+    let (_, off) = assert_skipping_is_invisible(
+        "additive mirror before a wall",
+        &desc,
+        &["reflection", "refraction"],
+    );
+    assert_eq!(off.shadow, WH + m);
+}
+
 /// Two perfect mirrors (half-space solids, `r = 1`) at `y = 10` and `y = −10` facing each other,
 /// the camera between them; a light at the eye.
 fn parallel_mirrors(max_depth: u32) -> SceneDesc {
@@ -529,6 +557,7 @@ fn rich_scene() -> SceneDesc {
         reflection: 0.1,
         transparency: 0.75,
         ior: 1.5,
+        blend: Blend::Share,
     };
     let shaders = vec![
         // 0: floor
@@ -682,6 +711,53 @@ fn rich_scene_skipping_changes_no_pixel() {
     full.settings.aa_threshold = None;
     assert_skipping_is_invisible(
         "rich scene, full multisampling",
+        &full,
+        &["shadow", "reflection", "refraction", "occlusion"],
+    );
+}
+
+#[test]
+fn rich_scene_with_additive_shaders_skipping_changes_no_pixel() {
+    let share = rich_scene();
+    let mut desc = share.clone();
+    for sh in &mut desc.shaders {
+        sh.blend = Blend::Additive;
+    }
+    let (img, on) = render(&desc);
+    assert!(on.reflection > 0 && on.refraction > 0 && on.shadow > 0 && on.occlusion > 0);
+    assert_ne!(img, render(&share).0, "the additive rule changes the image");
+    // Without adaptive multisampling (which refines the pixels that differ, so other ones for
+    // another image): the rules weigh mirror and refraction rays alike, so the cut-off keeps the
+    // same ones; every pixel is at least as bright as under the seed's rule, and some are
+    // brighter.
+    let mut full = desc.clone();
+    full.settings.aa_threshold = None;
+    let mut full_share = share.clone();
+    full_share.settings.aa_threshold = None;
+    let (a, ca) = render(&full);
+    let (b, cb) = render(&full_share);
+    assert_eq!(
+        (ca.reflection, ca.refraction),
+        (cb.reflection, cb.refraction)
+    );
+    assert!(a
+        .iter()
+        .zip(&b)
+        .all(|(a, b)| (0..3).all(|k| a.0[k] >= b.0[k])));
+    assert!(a.iter().zip(&b).any(|(a, b)| a != b));
+    assert_skipping_is_invisible(
+        "rich scene, additive",
+        &desc,
+        &[
+            "extra_samples",
+            "shadow",
+            "reflection",
+            "refraction",
+            "occlusion",
+        ],
+    );
+    assert_skipping_is_invisible(
+        "rich scene, additive, full multisampling",
         &full,
         &["shadow", "reflection", "refraction", "occlusion"],
     );

@@ -15,7 +15,7 @@ use strahl_core::render::render_line;
 use strahl_core::render::shade::{trace, TraceScratch};
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
-use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
+use strahl_core::scene::{Blend, Light, RenderSettings, Scene, SceneDesc, Shader};
 
 // ---------------------------------------------------------------------------------------------
 // Builders
@@ -31,6 +31,7 @@ fn glass(ior: f32) -> Shader {
         reflection: 0.0,
         transparency: 1.0,
         ior,
+        blend: Blend::Share,
     }
 }
 
@@ -696,4 +697,63 @@ fn refraction_stops_under_the_weight_cut_off() {
     let (px, counts) = line(&build(&d), 0);
     assert_eq!(counts.refraction, 0);
     assert_eq!(px[0], Pixel::from_color(Vec3::splat(0.25)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// NFF's additive rule
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn additive_glass_adds_the_whole_local_colour_of_every_surface_it_passes() {
+    // Transparency ½ under NFF's rule: each surface reached adds its whole local colour (0.25)
+    // at the path's weight. Weights 1, ½, ¼ and ⅛ reach a surface; the refracted ray of weight
+    // 1/16 is under the cut-off and adds nothing: 0.25 · (1 + ½ + ¼ + ⅛) = 0.46875.
+    let mut d = slab_stack(0.5);
+    d.shaders[0].blend = Blend::Additive;
+    let (px, counts) = line(&build(&d), 0);
+    assert_eq!(counts.refraction, 3, "{counts:?}");
+    assert_eq!(px[0], Pixel::from_color(Vec3::splat(0.46875)));
+    // The seed's rule on the same stack: local shares ½, ½ · ½, ½ · ¼, and the last surface
+    // keeps the untraced share: 0.25 · (½ + ¼ + ⅛ + ⅛) = 0.25.
+    let (px, counts) = line(&build(&slab_stack(0.5)), 0);
+    assert_eq!(counts.refraction, 3, "{counts:?}");
+    assert_eq!(px[0], Pixel::from_color(Vec3::splat(0.25)));
+}
+
+#[test]
+fn additive_total_internal_reflection_sends_the_refracted_share_along_the_mirror_ray() {
+    let critical = (1.0f32 / 1.5).asin();
+    let eye = Vec3::new(0.3, 0.0, -10.0);
+    let ambient = 0.0625f32;
+    let background = Vec3::new(0.2, 0.4, 0.6);
+    let material = Shader {
+        ambient: Vec3::splat(ambient),
+        blend: Blend::Additive,
+        ..glass(1.5)
+    };
+    // Below the critical angle the ray passes two surfaces (bottom, cut); above it the cut
+    // reflects it totally and it leaves through the side x = −1: three surfaces.
+    for (delta, surfaces) in [(-0.5f32, 2u64), (0.5, 3)] {
+        let (solids, objects) = prism(critical + delta.to_radians());
+        let mut d = one_pixel(vec![material], solids, objects, eye, Vec3::Z);
+        d.settings.background = background;
+        let (px, counts) = line(&build(&d), 0);
+        assert_eq!(
+            (counts.refraction, counts.reflection),
+            (2, surfaces - 2),
+            "{delta:+}°: {counts:?}"
+        );
+        // Each surface adds its whole local colour at weight 1 (T = 1 goes on in full, along the
+        // mirror ray at the cut above the critical angle), then the background.
+        let mut want = Vec3::ZERO;
+        for _ in 0..surfaces {
+            want += Vec3::splat(ambient);
+        }
+        want += background;
+        assert_eq!(px[0], Pixel::from_color(want), "{delta:+}°");
+        // The seed's rule gives no share to the local colour of a surface whose rays are traced.
+        d.shaders[0].blend = Blend::Share;
+        let (px, _) = line(&build(&d), 0);
+        assert_eq!(px[0], Pixel::from_color(background), "{delta:+}°");
+    }
 }

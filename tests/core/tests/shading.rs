@@ -7,7 +7,7 @@ use strahl_core::render::render_line;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::scene::mesh::MeshBuilder;
-use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader};
+use strahl_core::scene::{Blend, Light, RenderSettings, Scene, SceneDesc, Shader};
 
 fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {
     Shader {
@@ -18,6 +18,7 @@ fn shader(ambient: f32, diffuse: f32, reflection: f32) -> Shader {
         specular: Vec3::ZERO,
         shininess: 1.0,
         reflection,
+        blend: Blend::Share,
     }
 }
 
@@ -153,6 +154,93 @@ fn reflection_stops_under_ten_percent_weight() {
     let mut desc = mirrors(0.5);
     desc.settings.reflections = false;
     assert_eq!(render(&desc).1.reflection, 0);
+}
+
+/// A mirror wall (reflection `r`, ambient colour `c`, no diffuse or specular colour) under a
+/// known background; the mirror rays go back past the camera into the background. `blend`
+/// chooses the rule.
+fn mirror_wall(r: f32, blend: Blend) -> SceneDesc {
+    let sh = Shader {
+        ambient: Vec3::new(0.25, 0.125, 0.0),
+        blend,
+        ..shader(0.0, 0.0, r)
+    };
+    let mut desc = wall(sh, vec![light(Vec3::ZERO, true)]);
+    desc.settings.background = Vec3::new(0.5, 0.25, 1.0);
+    desc
+}
+
+#[test]
+fn additive_shader_adds_the_reflection_to_the_whole_local_colour() {
+    // Every pixel sees the wall: local = ambient (the light adds diffuse 0 · N·L), and the mirror
+    // ray brings back the background. All values are exact in binary.
+    let local = Vec3::new(0.25, 0.125, 0.0);
+    let background = Vec3::new(0.5, 0.25, 1.0);
+    let r = 0.5;
+    let (img, counts) = render(&mirror_wall(r, Blend::Additive));
+    assert_eq!(counts.reflection, 81, "one mirror ray per pixel");
+    let additive = Pixel::from_color(local + background * r);
+    assert_eq!(additive, Pixel::from_color(Vec3::new(0.5, 0.25, 0.5)));
+    assert!(img.iter().all(|&p| p == additive), "{:?}", img[40]);
+
+    // The seed's rule on the same wall scales the local colour down by 1 − r.
+    let (img, _) = render(&mirror_wall(r, Blend::Share));
+    let share = Pixel::from_color(local * (1.0 - r) + background * r);
+    assert_ne!(share, additive);
+    assert!(img.iter().all(|&p| p == share), "{:?}", img[40]);
+}
+
+#[test]
+fn additive_shader_reflection_not_traced_adds_nothing() {
+    let local = Vec3::new(0.25, 0.125, 0.0);
+    // Traced, the reflection adds r · background to the whole local colour.
+    let (img, _) = render(&mirror_wall(0.5, Blend::Additive));
+    assert_eq!(
+        img[40],
+        Pixel::from_color(local + Vec3::new(0.5, 0.25, 1.0) * 0.5)
+    );
+    let local = Pixel::from_color(local);
+    // Under the 10 % cut-off, with reflections off and with depth cap 0, the mirror ray is not
+    // traced: the additive wall shows its local colour alone (not lifted by the untraced share).
+    let mut cases = vec![mirror_wall(0.05, Blend::Additive)];
+    let mut off = mirror_wall(0.5, Blend::Additive);
+    off.settings.reflections = false;
+    cases.push(off);
+    let mut capped = mirror_wall(0.5, Blend::Additive);
+    capped.settings.max_depth = 0;
+    cases.push(capped);
+    for (i, desc) in cases.iter().enumerate() {
+        let (img, counts) = render(desc);
+        assert_eq!(counts.reflection, 0, "case {i}");
+        assert!(img.iter().all(|&p| p == local), "case {i}: {:?}", img[40]);
+    }
+}
+
+#[test]
+fn additive_perfect_mirror_keeps_its_lit_local_colour() {
+    // r = 1: the seed's rule leaves no local share (no lighting, no shadow rays); the additive
+    // rule lights the surface in full and adds the reflection on top.
+    let desc = |blend| {
+        let mut d = wall(
+            Shader {
+                blend,
+                ..shader(0.1, 0.5, 1.0)
+            },
+            vec![light(Vec3::ZERO, true)],
+        );
+        d.settings.background = Vec3::splat(0.25);
+        d
+    };
+    let (share, c) = render(&desc(Blend::Share));
+    assert_eq!((c.shadow, c.reflection), (0, 81), "{c:?}");
+    assert!(share
+        .iter()
+        .all(|&p| p == Pixel::from_color(Vec3::splat(0.25))));
+    let (additive, c) = render(&desc(Blend::Additive));
+    assert_eq!((c.shadow, c.reflection), (81, 81), "{c:?}");
+    // The centre pixel: ambient 0.1 + diffuse 0.5 (N·L = 1 with the light at the eye) plus the
+    // background, 0.85 = 217 of 255.
+    assert_eq!(additive[4 * 9 + 4].to_rgb8(), [217, 217, 217]);
 }
 
 #[test]

@@ -34,7 +34,7 @@ use strahl_core::geom::solid::{CsgOp, Shape, SolidNode, MAX_CSG_DEPTH};
 use strahl_core::math::transform::Transform;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{
-    model::shares_fit, settings::MAX_BOUNCES, Light, RenderSettings, SceneDesc, Shader,
+    model::shares_fit, settings::MAX_BOUNCES, Blend, Light, RenderSettings, SceneDesc, Shader,
     MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
 
@@ -59,6 +59,7 @@ pub const DEFAULT_MATERIAL: Shader = Shader {
     reflection: 0.0,
     transparency: 0.0,
     ior: 1.0,
+    blend: Blend::Share,
 };
 
 /// Runs `scene`, read from `path` (the base for mesh files), and returns its description (not
@@ -871,6 +872,8 @@ impl Expander {
             reflection,
             transparency,
             ior,
+            // FART keeps the seed's rule: the shares split the colour.
+            blend: Blend::Share,
         })
     }
 
