@@ -145,9 +145,6 @@ impl Octree {
     /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's triangle
     /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
     /// Returns how many cells it entered.
-    ///
-    /// The nearest child of a cell is walked next without going through the stack (a store
-    /// followed at once by a load of the same entry stalls the CPU); the others are pushed.
     fn walk(&self, ray: &Ray, t_max: f32, mut leaf: impl FnMut(&[u32]) -> f32) -> u64 {
         let inv_dir = Vec3::ONE / ray.dir;
         let Some((t0, t1)) = self.bounds.intersect(ray, inv_dir, t_max) else {
@@ -161,23 +158,13 @@ impl Octree {
             t0: 0.0,
             t1: 0.0,
         }; STACK_SIZE];
-        let mut top = 0usize;
-        let mut next = Some(Entry {
-            node: 0,
-            cell: self.bounds,
-            t0: t0 * (1.0 - widen),
-            t1,
-        });
+        stack[0].t0 = t0 * (1.0 - widen);
+        stack[0].t1 = t1;
+        let mut top = 1usize;
         let mut cutoff = f32::INFINITY;
-        loop {
-            let e = match next.take() {
-                Some(e) => e,
-                None if top > 0 => {
-                    top -= 1;
-                    stack[top]
-                }
-                None => return cells,
-            };
+        while top > 0 {
+            top -= 1;
+            let e = stack[top];
             if e.t0 > cutoff {
                 if cutoff == f32::NEG_INFINITY {
                     return cells;
@@ -192,98 +179,75 @@ impl Octree {
                 continue;
             }
             let mid = e.cell.center();
-            let cross = Crossings::new(ray, inv_dir, &e, mid);
-            // Far pieces go on the stack first, so the nearest is walked next.
-            for k in (0..=cross.n).rev() {
-                let (c, p0, p1) = cross.piece(k, &e, widen);
+            let (pieces, n) = pieces(ray, inv_dir, &e, mid, widen);
+            // Push far pieces first so the nearest is popped next.
+            for &(c, p0, p1) in pieces[..=n].iter().rev() {
                 let index = node.first + c as u32;
                 let child_node = self.nodes[index as usize];
                 if child_node.is_leaf() && child_node.count == 0 {
                     continue;
                 }
-                let child = Entry {
+                stack[top] = Entry {
                     node: index,
                     cell: child_box(&e.cell, mid, c),
                     t0: p0,
                     t1: p1,
                 };
-                if k == 0 {
-                    next = Some(child);
-                } else {
-                    stack[top] = child;
-                    top += 1;
-                }
+                top += 1;
             }
         }
+        cells
     }
 }
 
-/// Where a ray crosses the centre planes of a cell it is in during `[t0, t1]`: the child it
-/// starts in and the plane crossings inside the interval, in ray order. They cut the interval
-/// into `n + 1` pieces `[t0, c1], [c1, c2], ..., [cn, t1]`, one per child crossed.
-struct Crossings {
-    first_child: usize,
-    events: [(f32, usize); 3],
-    n: usize,
-}
-
-impl Crossings {
-    #[inline(always)]
-    fn new(ray: &Ray, inv_dir: Vec3, e: &Entry, mid: Vec3) -> Crossings {
-        // Where the ray crosses each centre plane, and on which side it starts.
-        let mut cross = [f32::INFINITY; 3];
-        let mut child = 0usize;
-        for a in 0..3 {
-            let d = ray.dir[a];
-            let upper = if d == 0.0 {
-                ray.origin[a] >= mid[a]
+/// The children of `e`'s cell that the ray crosses, in ray order, as (child, t0, t1) pieces of
+/// the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]`, each widened by `widen` around its
+/// inner crossings of the centre planes through `mid`; returns them and the count less one.
+#[inline(always)]
+fn pieces(
+    ray: &Ray,
+    inv_dir: Vec3,
+    e: &Entry,
+    mid: Vec3,
+    widen: f32,
+) -> ([(usize, f32, f32); 4], usize) {
+    // Where the ray crosses each centre plane, and on which side it starts.
+    let mut cross = [f32::INFINITY; 3];
+    let mut child = 0usize;
+    for a in 0..3 {
+        let d = ray.dir[a];
+        let upper = if d == 0.0 {
+            ray.origin[a] >= mid[a]
+        } else {
+            cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
+            if d > 0.0 {
+                e.t0 >= cross[a]
             } else {
-                cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
-                if d > 0.0 {
-                    e.t0 >= cross[a]
-                } else {
-                    e.t0 < cross[a]
-                }
-            };
-            child |= (upper as usize) << a;
-        }
-        // Plane crossings inside the interval, in ray order.
-        let mut events = [(f32::INFINITY, 0usize); 3];
-        let mut n = 0;
-        for (a, &c) in cross.iter().enumerate() {
-            if c > e.t0 && c < e.t1 {
-                events[n] = (c, a);
-                n += 1;
+                e.t0 < cross[a]
             }
-        }
-        sort3(&mut events);
-        Crossings {
-            first_child: child,
-            events,
-            n,
+        };
+        child |= (upper as usize) << a;
+    }
+    // Plane crossings inside the interval, in ray order.
+    let mut events = [(f32::INFINITY, 0usize); 3];
+    let mut n = 0;
+    for (a, &c) in cross.iter().enumerate() {
+        if c > e.t0 && c < e.t1 {
+            events[n] = (c, a);
+            n += 1;
         }
     }
-
-    /// Piece `k` as (child, t0, t1), widened by `widen` around its inner plane crossings so a
-    /// ray near a plane visits the cells on both sides.
-    #[inline(always)]
-    fn piece(&self, k: usize, e: &Entry, widen: f32) -> (usize, f32, f32) {
-        let mut child = self.first_child;
-        for &(_, a) in &self.events[..k] {
-            child ^= 1 << a;
-        }
-        let start = if k == 0 {
-            e.t0
-        } else {
-            self.events[k - 1].0 * (1.0 - widen)
-        };
-        let end = if k == self.n {
-            e.t1
-        } else {
-            self.events[k].0 * (1.0 + widen)
-        };
-        (child, start, end)
+    sort3(&mut events);
+    // Pieces: [t0, c1], [c1, c2], ..., [cn, t1], each widened around its inner crossings.
+    let mut pieces = [(0usize, 0.0f32, 0.0f32); 4];
+    let mut start = e.t0;
+    for (k, &(c, a)) in events[..n].iter().enumerate() {
+        pieces[k] = (child, start, c * (1.0 + widen));
+        child ^= 1 << a;
+        start = c * (1.0 - widen);
     }
+    pieces[n] = (child, start, e.t1);
+    (pieces, n)
 }
 
 /// Sorts three (t, axis) pairs by t; infinities (unused slots) sort last.
