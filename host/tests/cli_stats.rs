@@ -277,6 +277,9 @@ fn work_counts_are_the_same_for_any_worker_count_and_match_their_per_ray_figures
     };
     close("tests_per_ray", tests as f64 / total);
     close("cells_per_ray", cells as f64 / total);
+    // The peak memory, in bytes: at least the image buffer and the code, at most this machine.
+    let peak = uint(&one, &["peak_memory_bytes"]);
+    assert!((1 << 20..1 << 40).contains(&peak), "peak memory {peak}");
     // The octree's figures come with them.
     let octree = &one["octree"];
     assert!(uint(octree, &["nodes"]) >= 1, "{octree:#}");

@@ -12,7 +12,9 @@ use strahl_core::render::render_line;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Blend, Light, Scene, SceneDesc, TriangleDesc};
 use strahl_host::formats::error::LoadError;
-use strahl_host::formats::nff::{cone_transform, load_nff, parse_nff, shader_from_nff};
+use strahl_host::formats::nff::{
+    cone_transform, load_nff, parse_nff, shader_from_nff, NFF_MIN_RAY_WEIGHT,
+};
 
 fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -166,6 +168,9 @@ fn each_entity_maps_to_exact_scene_values() {
     let s = desc.settings;
     assert_eq!((s.width, s.height), (32, 24));
     assert_eq!(s.background, Vec3::new(0.1, 0.2, 0.3));
+    // Rays are traced down to POV-Ray's adc_bailout, not the seed's 10 %.
+    assert_eq!(s.min_reflection_weight, NFF_MIN_RAY_WEIGHT);
+    assert_eq!(NFF_MIN_RAY_WEIGHT, 1.0 / 255.0);
     let amount = 1.0 / 2f32.sqrt();
     assert_eq!(
         desc.lights,

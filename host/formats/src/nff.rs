@@ -29,8 +29,10 @@
 //! transmitted colour ([`Blend::Additive`]), as POV-Ray renders SPD's `.pov` files. The seed's
 //! formats keep the seed's rule, which scales the local colour down by `1 − Ks − T`.
 //!
-//! Render settings other than the image size and background keep Strahl's defaults (SPD's own
-//! rules trace at most 5 bounces without a weight cut-off; `--max-depth 5` comes closer).
+//! The image size and background come from the file. Reflection and refraction rays are traced
+//! down to a weight of [`NFF_MIN_RAY_WEIGHT`] (1/255, POV-Ray's default `adc_bailout`, with
+//! which SPD's `.pov` files render) instead of the seed's 10 %. Other settings keep Strahl's
+//! defaults (SPD's own rules trace at most 5 bounces; `--max-depth 5` says so).
 //!
 //! Every error is `path:line: what is wrong, what was expected` ([`LoadError::At`]), or
 //! `path: what is wrong` for a problem of the whole file (no `v` block, no light).
@@ -44,6 +46,11 @@ use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::transform::Transform;
 use strahl_core::scene::camera::{Camera, LookAtCamera};
 use strahl_core::scene::{Blend, Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};
+
+/// The lightest reflection or refraction ray an NFF scene traces: POV-Ray's default
+/// `adc_bailout`, 1/255, below which a ray cannot move an 8-bit channel by a whole step. SPD's
+/// rules trace every ray to the depth cap; POV-Ray, which renders SPD's `.pov` files, stops here.
+pub const NFF_MIN_RAY_WEIGHT: f32 = 1.0 / 255.0;
 
 /// Reads the NFF file at `path` into a validated scene.
 ///
@@ -792,6 +799,7 @@ impl<'a> Parser<'a> {
                 "no light (`l`) in the file; at least one is required".to_string(),
             ));
         }
+        self.desc.settings.min_reflection_weight = NFF_MIN_RAY_WEIGHT;
         // As SPD's POV-Ray files: n lights of 1/√n each keep the total brightness.
         let amount = 1.0 / (self.desc.lights.len() as f32).sqrt();
         for l in &mut self.desc.lights {

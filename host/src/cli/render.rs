@@ -386,6 +386,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         octree: *scene.octree.stats(),
         rays: image.rays,
         workers: image.workers.len(),
+        peak_memory: crate::util::sys::peak_memory_bytes(),
         output: loaded.output.clone(),
     };
     if let Some(path) = &args.stats_json {

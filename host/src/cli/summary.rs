@@ -36,6 +36,8 @@ pub struct RenderSummary {
     pub rays: RayCounts,
     /// Worker threads used.
     pub workers: usize,
+    /// The process's peak resident memory, if the system says.
+    pub peak_memory: Option<u64>,
     /// The image file written.
     pub output: PathBuf,
 }
@@ -48,7 +50,7 @@ impl fmt::Display for RenderSummary {
             f,
             "rendered {}x{} in {:.2} s (load {:.2} s, octree {:.2} s, tracing {:.2} s): {} \
              triangles, {} solids, octree {} nodes / {} (depth {}), rays {} primary, {} extra \
-             samples, {} shadow, {} reflection, {} refraction, {} occlusion ({}), {} worker{} -> {}",
+             samples, {} shadow, {} reflection, {} refraction, {} occlusion ({}), {} worker{}{} -> {}",
             self.width,
             self.height,
             self.total.as_secs_f64(),
@@ -69,6 +71,9 @@ impl fmt::Display for RenderSummary {
             format_ray_rate(r.total(), self.render.as_secs_f64()),
             self.workers,
             if self.workers == 1 { "" } else { "s" },
+            self.peak_memory
+                .map(|b| format!(", peak memory {}", format_bytes(b as usize)))
+                .unwrap_or_default(),
             self.output.display(),
         )
     }
@@ -97,6 +102,8 @@ pub struct RenderStats {
     pub work: StatsWork,
     /// The octree's build figures.
     pub octree: StatsOctree,
+    /// The process's peak resident memory in bytes (`null` where the system does not say).
+    pub peak_memory_bytes: Option<u64>,
     /// One entry per worker.
     pub workers: Vec<StatsWorker>,
     /// The image file written.
@@ -232,6 +239,7 @@ impl RenderStats {
             },
             work: StatsWork::new(&summary.rays),
             octree: StatsOctree::from(&summary.octree),
+            peak_memory_bytes: summary.peak_memory,
             workers: workers
                 .iter()
                 .map(|w| StatsWorker {
@@ -279,6 +287,7 @@ mod tests {
                 ..RayCounts::default()
             },
             workers: 2,
+            peak_memory: Some(3 << 20),
             output: PathBuf::from("output.bmp"),
         };
         assert_eq!(
@@ -286,7 +295,7 @@ mod tests {
             "rendered 640x480 in 1.23 s (load 0.17 s, octree 0.05 s, tracing 1.00 s): 12345 \
              triangles, 3 solids, octree 4567 nodes / 1.2 MiB (depth 9), rays 307200 primary, 8 \
              extra samples, 123 shadow, 45 reflection, 6 refraction, 7 occlusion (307.4 k rays/s), \
-             2 workers -> output.bmp"
+             2 workers, peak memory 3.0 MiB -> output.bmp"
         );
         assert_eq!(format_bytes(100), "100 B");
         assert_eq!(format_bytes(2048), "2.0 KiB");

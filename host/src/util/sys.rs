@@ -3,6 +3,7 @@
 //! [`host_name`] names this machine to its peers: a master puts it in its session header and in
 //! the address it gives launched workers, a worker gives it to its masters. Both sides take it
 //! from here, so neither the command line nor the cluster depends on the other for it.
+//! [`peak_memory_bytes`] is the process's largest resident set so far, for a render's summary.
 
 use std::time::Duration;
 use strahl_core::wire::MAX_NAME_LEN;
@@ -34,4 +35,14 @@ pub fn cut_name(name: &str) -> String {
         end -= 1;
     }
     name[..end].to_string()
+}
+
+/// The most memory this process has held resident so far (`getrusage`'s maximum resident set
+/// size, through nix), in bytes; `None` where the system does not say.
+pub fn peak_memory_bytes() -> Option<u64> {
+    let usage = nix::sys::resource::getrusage(nix::sys::resource::UsageWho::RUSAGE_SELF).ok()?;
+    let max_rss = u64::try_from(usage.max_rss()).ok()?;
+    // Linux and the BSDs count kibibytes, macOS bytes.
+    let unit = if cfg!(target_os = "macos") { 1 } else { 1024 };
+    Some(max_rss * unit).filter(|&b| b > 0)
 }
