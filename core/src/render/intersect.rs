@@ -48,6 +48,22 @@ impl RayHit for PrimitiveHit {
     }
 }
 
+/// What one ray's tests share: the triangle test's frame and the slab test's reciprocal
+/// direction.
+struct QueryFrame {
+    triangles: RayFrame,
+    inv_dir: glam::Vec3,
+}
+
+impl QueryFrame {
+    fn new(ray: &Ray) -> QueryFrame {
+        QueryFrame {
+            triangles: RayFrame::new(ray),
+            inv_dir: glam::Vec3::ONE / ray.dir,
+        }
+    }
+}
+
 impl Scene {
     /// Primitive index of solid object `j`.
     #[inline]
@@ -59,7 +75,7 @@ impl Scene {
     #[inline]
     fn test_primitive(
         &self,
-        frame: &RayFrame,
+        frame: &QueryFrame,
         ray: &Ray,
         i: u32,
         t_max: f32,
@@ -67,11 +83,11 @@ impl Scene {
     ) -> Option<PrimitiveHit> {
         let n = self.triangle_points.len() as u32;
         if i < n {
-            intersect(frame, &self.triangle_points[i as usize], t_max)
+            intersect(&frame.triangles, &self.triangle_points[i as usize], t_max)
                 .map(|h| PrimitiveHit::Triangle(i, h))
         } else {
             self.solids
-                .first_hit(i - n, ray, t_max, spans)
+                .first_hit_in_box(i - n, ray, frame.inv_dir, t_max, spans)
                 .map(|h| PrimitiveHit::Solid(i - n, h))
         }
     }
@@ -83,10 +99,10 @@ impl Scene {
         t_max: f32,
         scratch: &mut QueryScratch,
     ) -> Option<PrimitiveHit> {
-        let frame = RayFrame::new(ray);
         let work = &mut scratch.work;
         if self.solids.is_empty() {
             // Triangles only (the seed's scenes): no solid to dispatch to.
+            let frame = RayFrame::new(ray);
             let triangles = &self.triangle_points;
             return self
                 .octree
@@ -96,6 +112,7 @@ impl Scene {
                 .map(|(i, h)| PrimitiveHit::Triangle(i, h));
         }
         let spans = &mut scratch.spans;
+        let frame = QueryFrame::new(ray);
         let mut best = self.octree.closest_hit_with(ray, t_max, work, |i, bound| {
             self.test_primitive(&frame, ray, i, bound, spans)
         });
@@ -119,7 +136,7 @@ impl Scene {
     #[inline]
     fn blocks(
         &self,
-        frame: &RayFrame,
+        frame: &QueryFrame,
         ray: &Ray,
         i: u32,
         t_max: f32,
@@ -142,7 +159,7 @@ impl Scene {
         scratch: &mut QueryScratch,
         last: &mut Option<u32>,
     ) -> bool {
-        let frame = RayFrame::new(ray);
+        let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         // A scratch carried over from another scene may remember an index this one lacks.
         let primitives = self.solid_index(self.solids.len() as u32);
@@ -171,12 +188,12 @@ impl Scene {
     /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
     /// `t + t_error < t_max` (shadow and occlusion rays).
     pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut QueryScratch) -> bool {
-        let frame = RayFrame::new(ray);
+        let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         if self.solids.is_empty() {
             let triangles = &self.triangle_points;
             return self.octree.any_hit_with(ray, t_max, work, |i| {
-                intersect(&frame, &triangles[i as usize], t_max)
+                intersect(&frame.triangles, &triangles[i as usize], t_max)
                     .is_some_and(|h| h.t + h.t_error < t_max)
             });
         }

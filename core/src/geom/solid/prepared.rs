@@ -107,8 +107,27 @@ pub struct Solids {
     objects: Vec<u32>,
     /// World box of each object (`None`: unbounded).
     bounds: Vec<Option<Aabb>>,
+    /// Per object, the box a ray must cross before the object is evaluated: its world box grown
+    /// by [`REJECT_MARGIN`]; `None` for unbounded objects and for lone spheres, whose own test
+    /// is about as cheap.
+    reject_boxes: Vec<Option<Aabb>>,
     /// Object-space triangles of the mesh nodes.
     mesh_triangles: Vec<[Vec3; 3]>,
+}
+
+/// How far an object's reject box reaches beyond its world box, relative to the box's size and
+/// distance from the origin: orders of magnitude above the rounding of any crossing the object's
+/// test can report, so the box test never drops a hit the test would find.
+const REJECT_MARGIN: f32 = 1e-4;
+
+/// `b` grown by [`REJECT_MARGIN`].
+fn reject_box(b: &Aabb) -> Aabb {
+    let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
+    let m = Vec3::splat(scale * REJECT_MARGIN);
+    Aabb {
+        min: b.min - m,
+        max: b.max + m,
+    }
 }
 
 fn finite_box(b: &Aabb) -> bool {
@@ -182,17 +201,32 @@ impl Solids {
             };
             boxes.push(b);
         }
-        let bounds = objects
+        let bounds: Vec<Option<Aabb>> = objects
             .iter()
             .map(|&r| {
                 let b = boxes[r as usize];
                 finite_box(&b).then_some(b)
             })
             .collect();
+        let reject_boxes = objects
+            .iter()
+            .zip(&bounds)
+            .map(|(&r, b)| {
+                let sphere = matches!(
+                    prepared[r as usize],
+                    PreparedNode::Leaf {
+                        shape: Shape::Sphere { .. },
+                        ..
+                    }
+                );
+                b.as_ref().filter(|_| !sphere).map(reject_box)
+            })
+            .collect();
         Solids {
             nodes: prepared,
             objects: objects.to_vec(),
             bounds,
+            reject_boxes,
             mesh_triangles: mesh_triangles.to_vec(),
         }
     }
@@ -339,6 +373,24 @@ impl Solids {
             face: first.face,
             flip: first.flip,
         })
+    }
+
+    /// [`Solids::first_hit`], skipped when the ray misses the object's reject box within
+    /// `[0, t_max]` (`inv_dir` is `1 / ray.dir`): the same answer, found cheaply for rays that
+    /// pass far from a cone, a box or a CSG object.
+    #[inline]
+    pub fn first_hit_in_box(
+        &self,
+        object: u32,
+        ray: &Ray,
+        inv_dir: Vec3,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<SolidHit> {
+        if let Some(b) = &self.reject_boxes[object as usize] {
+            b.intersect(ray, inv_dir, t_max)?;
+        }
+        self.first_hit(object, ray, t_max, scratch)
     }
 
     /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
