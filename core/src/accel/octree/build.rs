@@ -4,10 +4,12 @@
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a solid by its world bounding box.
 //!
-//! Every leaf is appraised when it is made: its children's lists are computed, and the split's
-//! gain in expected tests per ray, per byte it adds, becomes its priority. Leaves are split in
-//! priority order until the next split would take the tree past [`BYTES_PER_PRIMITIVE`]; a leaf
-//! whose split would not pay (its primitives overlap too much to separate) stays a leaf. The
+//! A leaf that may be split is queued at the most its split could gain; when it comes first it
+//! is appraised (its children's lists computed, and the split's gain in expected tests per ray
+//! per byte it adds becomes its priority) and queued again. An appraised leaf that comes first is
+//! split. The build ends at the first split that would take the tree past
+//! [`BYTES_PER_PRIMITIVE`], so leaves that would never be split are mostly never appraised; a
+//! leaf whose split would not pay (its primitives overlap too much to separate) stays a leaf. The
 //! order depends only on the scene, so every machine builds the same tree.
 
 use super::overlap::triangle_box_overlap;
@@ -15,6 +17,7 @@ use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use alloc::boxed::Box;
 use alloc::collections::BinaryHeap;
 use alloc::vec::Vec;
 use core::cmp::Reverse;
@@ -27,6 +30,15 @@ pub const BYTES_PER_PRIMITIVE: usize = 48;
 /// The cost of entering a cell, in units of one primitive test (the surface area heuristic's
 /// traversal cost).
 const CELL_COST: f32 = 1.0;
+
+/// The priority of a split that gains `gain` tests per ray entering a cell at `depth` and adds
+/// `bytes`: surface area heuristic. A ray that enters a cell enters each child with probability
+/// 1/4 (a child's surface is a quarter of its parent's), so splitting turns `n` tests into
+/// [`CELL_COST`] plus a quarter of the children's entries; the gain is weighted by the chance of
+/// reaching the cell at all (`4^-depth`) and divided by the bytes the split costs.
+fn priority(gain: f32, depth: u32, bytes: usize) -> f32 {
+    gain * libm::powf(0.25, depth as f32) / bytes as f32
+}
 
 /// Bytes of a node and of a leaf entry.
 const NODE_BYTES: usize = core::mem::size_of::<Node>();
@@ -56,7 +68,7 @@ struct Leaf {
     cell: Aabb,
     depth: u32,
     refs: Vec<u32>,
-    children: Option<[Vec<u32>; 8]>,
+    children: Option<Box<[Vec<u32>; 8]>>,
 }
 
 impl Octree {
@@ -94,7 +106,9 @@ impl Octree {
         let filed_count = filed.len() as u32;
         b.add_leaf(bounds, 0, filed);
         while let Some((_, Reverse(node))) = b.queue.pop() {
-            b.split_if_it_fits(node as usize);
+            if !b.step(node as usize) {
+                break;
+            }
         }
         let (nodes, indices, mut stats) = b.finish();
         stats.triangles = (triangles.len() + solids.len()) as u32;
@@ -150,70 +164,77 @@ fn filed_primitives(
 }
 
 impl Builder<'_> {
-    /// Appends a leaf over `refs` and queues it if splitting it would pay.
+    /// Appends a leaf over `refs` and queues it, at the most its split could be worth, if it may
+    /// be split at all.
     fn add_leaf(&mut self, cell: Aabb, depth: u32, refs: Vec<u32>) {
         let node = self.nodes.len();
-        self.bytes += NODE_BYTES + ENTRY_BYTES * refs.len();
+        let n = refs.len();
+        self.bytes += NODE_BYTES + ENTRY_BYTES * n;
         self.nodes.push(Node { first: 0, count: 0 });
-        let mut leaf = Leaf {
+        if n > self.params.max_leaf_triangles as usize && depth < self.params.max_depth {
+            // Every primitive lands in at least one child (the grown children cover the grown
+            // cell), so no split gains more than `n − CELL_COST − n/4` or adds fewer bytes than
+            // its eight nodes.
+            let best = priority(n as f32 - CELL_COST - n as f32 / 4.0, depth, 8 * NODE_BYTES);
+            self.queue.push((best.to_bits(), Reverse(node as u32)));
+        }
+        self.leaves.push(Some(Leaf {
             cell,
             depth,
             refs,
             children: None,
-        };
-        if let Some((priority, children)) = self.appraise(&leaf) {
-            leaf.children = Some(children);
-            self.queue.push((priority.to_bits(), Reverse(node as u32)));
-        }
-        self.leaves.push(Some(leaf));
+        }));
     }
 
-    /// The children's lists of `leaf` and the priority of splitting it, or `None` if it is too
-    /// small or too deep to split or splitting would not pay.
-    ///
-    /// Surface area heuristic: a ray that enters a cell enters each child with probability 1/4
-    /// (a child's surface is a quarter of its parent's), so splitting turns `n` tests into
-    /// [`CELL_COST`] plus a quarter of the children's entries. The gain, weighted by the chance of
-    /// reaching the cell at all (`4^-depth`), per byte the split adds, is the priority.
-    fn appraise(&mut self, leaf: &Leaf) -> Option<(f32, [Vec<u32>; 8])> {
-        let n = leaf.refs.len();
-        if n <= self.params.max_leaf_triangles as usize || leaf.depth >= self.params.max_depth {
-            return None;
+    /// Takes the best queued leaf a step further: a leaf not yet appraised is appraised and
+    /// queued again at its true priority (or stays a leaf if splitting would not pay); an
+    /// appraised one is split. Returns false when that split would pass the budget: the build
+    /// ends there.
+    fn step(&mut self, node: usize) -> bool {
+        let Some(leaf) = self.leaves[node].as_ref() else {
+            return true;
+        };
+        if leaf.children.is_some() {
+            return self.split_if_it_fits(node);
         }
         let children = self.split(&leaf.cell, &leaf.refs);
+        let n = leaf.refs.len();
         let total: usize = children.iter().map(Vec::len).sum();
         let gain = n as f32 - (CELL_COST + total as f32 / 4.0);
-        if gain <= 0.0 {
-            return None;
+        if gain > 0.0 {
+            let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
+            let p = priority(gain, leaf.depth, added);
+            self.queue.push((p.to_bits(), Reverse(node as u32)));
+            if let Some(leaf) = self.leaves[node].as_mut() {
+                leaf.children = Some(Box::new(children));
+            }
         }
-        let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
-        let reach = libm::powf(0.25, leaf.depth as f32);
-        Some((gain * reach / added as f32, children))
+        true
     }
 
-    /// Splits leaf `node` into eight children unless the tree would outgrow its budget.
-    fn split_if_it_fits(&mut self, node: usize) {
-        let Some(leaf) = self.leaves[node].as_mut() else {
-            return;
-        };
-        let Some(children) = &leaf.children else {
-            return;
-        };
-        let total: usize = children.iter().map(Vec::len).sum();
-        let n = leaf.refs.len();
-        if self.bytes + 8 * NODE_BYTES + ENTRY_BYTES * total > self.budget + ENTRY_BYTES * n {
-            leaf.children = None;
-            return;
-        }
+    /// Splits appraised leaf `node` into eight children; false if the tree would pass its
+    /// budget.
+    fn split_if_it_fits(&mut self, node: usize) -> bool {
         let Some(Leaf {
             cell,
             depth,
+            refs,
             children: Some(children),
-            ..
         }) = self.leaves[node].take()
         else {
-            return;
+            return true;
         };
+        let total: usize = children.iter().map(Vec::len).sum();
+        let n = refs.len();
+        if self.bytes + 8 * NODE_BYTES + ENTRY_BYTES * total > self.budget + ENTRY_BYTES * n {
+            self.leaves[node] = Some(Leaf {
+                cell,
+                depth,
+                refs,
+                children: None,
+            });
+            return false;
+        }
         self.bytes -= ENTRY_BYTES * n;
         self.nodes[node] = Node {
             first: self.nodes.len() as u32,
@@ -223,6 +244,7 @@ impl Builder<'_> {
         for (c, refs) in children.into_iter().enumerate() {
             self.add_leaf(child_box(&cell, mid, c), depth + 1, refs);
         }
+        true
     }
 
     /// Lays the leaves' lists out in node order and sums up the statistics.
@@ -250,31 +272,67 @@ impl Builder<'_> {
     }
 
     /// The primitives of `refs` that each child of `cell` touches.
-    fn split(&mut self, cell: &Aabb, refs: &[u32]) -> [Vec<u32>; 8] {
+    fn split(&self, cell: &Aabb, refs: &[u32]) -> [Vec<u32>; 8] {
+        // First which children each primitive touches, then lists of exactly that size.
         let mid = cell.center();
-        let m = self.margin;
         let child_boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
-        let mut children: [Vec<u32>; 8] = Default::default();
-        for &t in refs {
-            let b = &self.boxes[t as usize];
-            // Which halves of each axis the primitive's box reaches (boundaries count on both).
-            let mut lo = [false; 3];
-            let mut hi = [false; 3];
-            for a in 0..3 {
-                lo[a] = b.min[a] <= mid[a] + m;
-                hi[a] = b.max[a] >= mid[a] - m;
-            }
-            let single = (0..3).all(|a| !(lo[a] && hi[a]));
-            for (c, cb) in child_boxes.iter().enumerate() {
-                let candidate = (0..3).all(|a| if (c >> a) & 1 == 1 { hi[a] } else { lo[a] });
-                // A box on one side of every centre plane lies in one child: it is the
-                // primitive's only candidate and the parent's test already said it touches it.
-                if candidate && (single || self.touches(cb, t as usize)) {
-                    children[c].push(t);
+        let mut counts = [0usize; 8];
+        let masks: Vec<u8> = refs
+            .iter()
+            .map(|&t| {
+                let mask = self.children_touched(&child_boxes, mid, t as usize);
+                for (c, count) in counts.iter_mut().enumerate() {
+                    *count += usize::from(mask >> c & 1);
+                }
+                mask
+            })
+            .collect();
+        let mut children: [Vec<u32>; 8] = core::array::from_fn(|c| Vec::with_capacity(counts[c]));
+        for (&t, &mask) in refs.iter().zip(&masks) {
+            for (c, list) in children.iter_mut().enumerate() {
+                if mask >> c & 1 == 1 {
+                    list.push(t);
                 }
             }
         }
         children
+    }
+
+    /// Which of the children `child_boxes` (of a cell split at `mid`) primitive `t` touches,
+    /// bit `c` for child `c`.
+    #[inline]
+    fn children_touched(&self, child_boxes: &[Aabb; 8], mid: Vec3, t: usize) -> u8 {
+        /// Per axis, the children on its upper side (bit `a` of the child's index set).
+        const UPPER: [u8; 3] = [0xAA, 0xCC, 0xF0];
+        let b = &self.boxes[t];
+        let m = self.margin;
+        // The children the primitive's box reaches: per axis the halves it reaches (boundaries
+        // count on both), intersected over the axes.
+        let mut candidates = 0xFFu8;
+        let mut straddles = false;
+        for a in 0..3 {
+            let lo = b.min[a] <= mid[a] + m;
+            let hi = b.max[a] >= mid[a] - m;
+            straddles |= lo && hi;
+            candidates &= match (lo, hi) {
+                (true, true) => 0xFF,
+                (true, false) => !UPPER[a],
+                (false, true) => UPPER[a],
+                (false, false) => 0,
+            };
+        }
+        if !straddles {
+            // A box on one side of every centre plane lies in one child: it is the primitive's
+            // only candidate and the parent's test already said it touches it.
+            return candidates;
+        }
+        let mut mask = 0u8;
+        for (c, cb) in child_boxes.iter().enumerate() {
+            if candidates >> c & 1 == 1 && self.touches(cb, t) {
+                mask |= 1 << c;
+            }
+        }
+        mask
     }
 
     /// True if primitive `t` touches the child box `cb` grown by the margin.
