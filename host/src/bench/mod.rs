@@ -8,7 +8,8 @@
 //!   reference and what it costs in time; writes `docs/accuracy.md` and its plot.
 //! - [`peers`]: `strahl bench peers`, Strahl against POV-Ray 3.7 on the SPD scenes (tracing
 //!   time on one thread, the whole process on two, rays, image difference), side by side.
-//! - `stats`: the median that every figure above is taken from.
+//! - `stats`: the median that every figure above is taken from; `machine`: the date and the CPU
+//!   that reports name.
 //!
 //! Each benchmark takes a plain options struct ([`BenchOptions`],
 //! [`ScalingOptions`](scaling::ScalingOptions), [`AccuracyOptions`](accuracy::AccuracyOptions),
@@ -16,6 +17,7 @@
 //! their clap types and the dispatch are the command line's (`cli::bench`).
 
 pub mod accuracy;
+mod machine;
 pub mod peers;
 pub mod scaling;
 pub mod speed;

@@ -211,6 +211,16 @@ fn assert_skipping_is_invisible(
 // Exact counts on crafted scenes
 // ---------------------------------------------------------------------------------------------
 
+/// The ray kinds that skipping leaves out in a scene with every effect and adaptive
+/// multisampling.
+const ADAPTIVE_KINDS: &[&str] = &[
+    "extra_samples",
+    "shadow",
+    "reflection",
+    "refraction",
+    "occlusion",
+];
+
 #[test]
 fn opaque_scene_traces_no_mirror_or_refraction_rays() {
     // No reflective and no transparent shader; a light at the eye lights every hit.
@@ -695,17 +705,7 @@ fn rich_scene_skipping_changes_no_pixel() {
     // Skipping off: dropped shadow rays to hidden and non-casting lights, dropped mirror and
     // refraction rays, occlusion at the box without ambient colour, and all samples of every
     // pixel (adaptive multisampling), all without changing a pixel.
-    assert_skipping_is_invisible(
-        "rich scene",
-        &desc,
-        &[
-            "extra_samples",
-            "shadow",
-            "reflection",
-            "refraction",
-            "occlusion",
-        ],
-    );
+    assert_skipping_is_invisible("rich scene", &desc, ADAPTIVE_KINDS);
     // The same without adaptive multisampling: then the samples do not change.
     let mut full = desc.clone();
     full.settings.aa_threshold = None;
@@ -745,17 +745,7 @@ fn rich_scene_with_additive_shaders_skipping_changes_no_pixel() {
         .zip(&b)
         .all(|(a, b)| (0..3).all(|k| a.0[k] >= b.0[k])));
     assert!(a.iter().zip(&b).any(|(a, b)| a != b));
-    assert_skipping_is_invisible(
-        "rich scene, additive",
-        &desc,
-        &[
-            "extra_samples",
-            "shadow",
-            "reflection",
-            "refraction",
-            "occlusion",
-        ],
-    );
+    assert_skipping_is_invisible("rich scene, additive", &desc, ADAPTIVE_KINDS);
     assert_skipping_is_invisible(
         "rich scene, additive, full multisampling",
         &full,

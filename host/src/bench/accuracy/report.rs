@@ -591,37 +591,12 @@ pub(super) fn knob_title(knob: Knob) -> &'static str {
     }
 }
 
-/// Days since 1970-01-01 to a civil date (Howard Hinnant's algorithm).
-pub(super) fn civil_date(days: i64) -> (i64, u32, u32) {
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    (y, m, d)
-}
-
 pub(super) fn machine_info(cores: usize, load_start: &str) -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
+    let cpuinfo = std::fs::read_to_string("/proc/cpuinfo").unwrap_or_default();
+    let cpu = crate::bench::machine::cpu_from(&cpuinfo)
+        .0
         .unwrap_or_else(|| "CPU model unknown".to_string());
-    let date = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| {
-            let (y, m, day) = civil_date((d.as_secs() / 86_400) as i64);
-            format!("{y}-{m:02}-{day:02}")
-        })
-        .unwrap_or_else(|_| "date unknown".to_string());
+    let date = crate::bench::machine::today();
     format!(
         "{cores} CPUs ({cpu}), {} {}, {} build, {date}; 1-minute load average {load_start} at the \
          start, {} at the end",
@@ -954,15 +929,4 @@ fn front_and_knobs(md: &mut String, scenes: &[SceneRun], rows: &[Row], svg_name:
          inconclusive); an f64 reference would need a second renderer, so this report gives \
          no figure for it."
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn civil_dates() {
-        assert_eq!(civil_date(0), (1970, 1, 1));
-        assert_eq!(civil_date(19_723), (2024, 1, 1));
-    }
 }

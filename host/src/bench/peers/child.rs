@@ -82,6 +82,14 @@ pub fn run_child(scene: &str, mut cmd: Command) -> anyhow::Result<ChildRun> {
     })
 }
 
+/// This process's command line, each word quoted where a shell would need it.
+pub fn own_command_line() -> String {
+    std::env::args_os()
+        .map(|a| shell_word(&a.to_string_lossy()))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -28,7 +28,6 @@ use std::path::PathBuf;
 mod child;
 mod docs;
 mod images;
-mod machine;
 mod measure;
 mod povray;
 mod rays;
@@ -39,9 +38,10 @@ mod table;
 
 pub use docs::{BEGIN, END, HEADING};
 
+use super::machine::{machine, today};
+use child::own_command_line;
 use docs::{check_docs, write_docs};
 use images::{load_rgb, mean_abs_diff, side_by_side, write_png};
-use machine::{command_line, machine, today};
 use measure::{measure_scene, Setup};
 use povray::locate_povray;
 use scenes::find_pairs;
@@ -155,7 +155,7 @@ pub fn run(opts: &PeersOptions) -> anyhow::Result<()> {
             date: today(),
             machine: machine(),
             povray_version: rows.iter().find_map(|r| r.measure.povray.version.clone()),
-            command: command_line(),
+            command: own_command_line(),
             size: opts.size,
             depth: opts.depth,
             runs: opts.runs,

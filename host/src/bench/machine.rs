@@ -1,7 +1,6 @@
-//! Where and how a comparison ran, for the report: today's date (UTC), the CPU model and count
-//! from `/proc/cpuinfo`, and the command line exactly as it was given.
+//! Where a benchmark ran, for its report: today's date (UTC) and the CPU model and count from
+//! `/proc/cpuinfo`. Every benchmark that writes a report takes them from here.
 
-use super::child::shell_word;
 use std::num::NonZeroUsize;
 use std::time::{SystemTime, UNIX_EPOCH};
 
@@ -58,14 +57,6 @@ pub fn machine() -> String {
     } else {
         format!("{model}, {listed} logical CPU{}", plural(listed))
     }
-}
-
-/// This process's command line, each word quoted where a shell would need it.
-pub fn command_line() -> String {
-    std::env::args_os()
-        .map(|a| shell_word(&a.to_string_lossy()))
-        .collect::<Vec<_>>()
-        .join(" ")
 }
 
 #[cfg(test)]
