@@ -265,6 +265,18 @@ impl Builder<'_> {
             stats.depth = stats.depth.max(leaf.depth);
             stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
         }
+        // Each interior node notes which of its children are not empty leaves.
+        for i in 0..nodes.len() {
+            if !nodes[i].is_leaf() {
+                let first = nodes[i].first as usize;
+                let occupied = (0..8).fold(0u32, |mask, c| {
+                    let child = nodes[first + c];
+                    let empty = child.is_leaf() && child.count == 0;
+                    mask | u32::from(!empty) << c
+                });
+                nodes[i].count = INTERIOR | occupied;
+            }
+        }
         stats.nodes = nodes.len() as u32;
         stats.references = indices.len() as u32;
         stats.bytes = nodes.len() * NODE_BYTES + indices.len() * ENTRY_BYTES;

@@ -51,11 +51,13 @@ impl Default for OctreeParams {
     }
 }
 
-/// Marks an interior node in [`Node::count`].
-const INTERIOR: u32 = u32::MAX;
+/// Marks an interior node in [`Node::count`]; its low 8 bits say which children are not empty
+/// leaves.
+const INTERIOR: u32 = 1 << 31;
 
-/// One octree cell: an interior node (children at `first .. first + 8`) or a leaf (triangle
-/// indices at `first .. first + count` of [`Octree::indices`]).
+/// One octree cell: an interior node (children at `first .. first + 8`, `count` is [`INTERIOR`]
+/// with bit `c` set if child `c` holds anything) or a leaf (primitive indices at
+/// `first .. first + count` of [`Octree::indices`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Node {
     first: u32,
@@ -66,7 +68,13 @@ impl Node {
     /// True for a leaf.
     #[inline]
     pub fn is_leaf(&self) -> bool {
-        self.count != INTERIOR
+        self.count & INTERIOR == 0
+    }
+
+    /// For an interior node: true if child `c` is not an empty leaf (read without loading it).
+    #[inline]
+    pub fn child_occupied(&self, c: usize) -> bool {
+        self.count >> c & 1 == 1
     }
 }
 

@@ -182,11 +182,10 @@ impl Octree {
             let (pieces, n) = pieces(ray, inv_dir, &e, mid, widen);
             // Push far pieces first so the nearest is popped next.
             for &(c, p0, p1) in pieces[..=n].iter().rev() {
-                let index = node.first + c as u32;
-                let child_node = self.nodes[index as usize];
-                if child_node.is_leaf() && child_node.count == 0 {
+                if !node.child_occupied(c) {
                     continue;
                 }
+                let index = node.first + c as u32;
                 stack[top] = Entry {
                     node: index,
                     cell: child_box(&e.cell, mid, c),
