@@ -31,11 +31,16 @@ pub const BYTES_PER_PRIMITIVE: usize = 48;
 /// traversal cost).
 const CELL_COST: f32 = 1.0;
 
+/// The tests per ray a split of a cell of `n` entries into children of `total` entries saves
+/// (surface area heuristic): a ray that enters a cell enters each child with probability 1/4 (a
+/// child's surface is a quarter of its parent's), so the split turns `n` tests into
+/// [`CELL_COST`] plus a quarter of the children's entries.
+fn split_gain(n: usize, total: usize) -> f32 {
+    n as f32 - (CELL_COST + total as f32 / 4.0)
+}
+
 /// The priority of a split that gains `gain` tests per ray entering a cell at `depth` and adds
-/// `bytes`: surface area heuristic. A ray that enters a cell enters each child with probability
-/// 1/4 (a child's surface is a quarter of its parent's), so splitting turns `n` tests into
-/// [`CELL_COST`] plus a quarter of the children's entries; the gain is weighted by the chance of
-/// reaching the cell at all (`4^-depth`) and divided by the bytes the split costs.
+/// `bytes`: the gain weighted by the chance of reaching the cell at all (`4^-depth`), per byte.
 fn priority(gain: f32, depth: u32, bytes: usize) -> f32 {
     gain * libm::powf(0.25, depth as f32) / bytes as f32
 }
@@ -175,7 +180,7 @@ impl Builder<'_> {
             // Every primitive lands in at least one child (the grown children cover the grown
             // cell), so no split gains more than `n − CELL_COST − n/4` or adds fewer bytes than
             // its eight nodes.
-            let best = priority(n as f32 - CELL_COST - n as f32 / 4.0, depth, 8 * NODE_BYTES);
+            let best = priority(split_gain(n, n), depth, 8 * NODE_BYTES);
             self.queue.push((best.to_bits(), Reverse(node as u32)));
         }
         self.leaves.push(Some(Leaf {
@@ -200,7 +205,7 @@ impl Builder<'_> {
         let children = self.split(&leaf.cell, &leaf.refs);
         let n = leaf.refs.len();
         let total: usize = children.iter().map(Vec::len).sum();
-        let gain = n as f32 - (CELL_COST + total as f32 / 4.0);
+        let gain = split_gain(n, total);
         if gain > 0.0 {
             let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
             let p = priority(gain, leaf.depth, added);
