@@ -152,14 +152,22 @@ impl Octree {
         };
         let mut cells = 0u64;
         let widen = 2.0 * gamma(3);
+        // All-zero entries: the compiler clears the stack with one fill.
         let mut stack = [Entry {
             node: 0,
-            cell: self.bounds,
+            cell: Aabb {
+                min: Vec3::ZERO,
+                max: Vec3::ZERO,
+            },
             t0: 0.0,
             t1: 0.0,
         }; STACK_SIZE];
-        stack[0].t0 = t0 * (1.0 - widen);
-        stack[0].t1 = t1;
+        stack[0] = Entry {
+            node: 0,
+            cell: self.bounds,
+            t0: t0 * (1.0 - widen),
+            t1,
+        };
         let mut top = 1usize;
         let mut cutoff = f32::INFINITY;
         while top > 0 {
