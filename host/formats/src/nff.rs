@@ -90,8 +90,10 @@ pub fn parse_nff(path: &Path, text: &str) -> Result<SceneDesc, LoadError> {
 ///   POV-Ray files write it as `reflection`); transparency = T; ior as given (1 when T = 0, as
 ///   SPD writes 0 there);
 /// - ambient = colour · max(0, 1 − Kd − Ks − T). NFF has no ambient term; SPD's generators pass
-///   one to their POV-Ray output but not to NFF, and this rule gives the `ambient` of every SPD
-///   `.pov` file (0.2 for the sphereflake's floor, 0 elsewhere);
+///   one (and a highlight coefficient apart from Ks) to their POV-Ray output but not to NFF. This
+///   rule gives the `ambient` of the balls, mount, teapot and tetra `.pov` files (0.2 for the
+///   sphereflake's floor, 0 elsewhere) and of shells and tree, but not of rings (0 there, 0.3
+///   here), lattice's cylinders (0.1, here 0.01) or gears' floor (0, here 0.1);
 /// - blend = [`Blend::Additive`]: colour = local + Ks · reflected + T · transmitted, NFF's model
 ///   ("it is not required that Kd + Ks == 1") and POV-Ray's, whose `reflection` adds the mirror
 ///   colour without dimming the rest. A mirror or refracted ray under the cut-off or past the
