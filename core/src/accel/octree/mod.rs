@@ -46,7 +46,7 @@ impl Default for OctreeParams {
     fn default() -> Self {
         OctreeParams {
             max_depth: 16,
-            max_leaf_triangles: 8,
+            max_leaf_triangles: 4,
         }
     }
 }
