@@ -8,8 +8,9 @@
 //! `(1 − r − t) · local + r · reflected + t · refracted` for the seed's [`Share`](Blend::Share),
 //! `local + r · reflected + t · refracted` for NFF's [`Additive`](Blend::Additive). A reflected or
 //! refracted ray is traced only while its switch is on, the path weight (product of the shares
-//! along it) stays at or above the cut-off, and the depth cap is not reached. A share not traced goes to the local colour under
-//! `Share` and adds nothing under `Additive` (as POV-Ray drops a reflection under `adc_bailout`).
+//! along it) stays at or above the cut-off, and the depth cap is not reached. A share not traced
+//! goes to the local colour under `Share` and adds nothing under `Additive` (as POV-Ray drops a
+//! reflection under `adc_bailout`).
 //! Total internal reflection sends the refracted share along the mirror ray. Rays that cannot
 //! change a pixel are not made: no lighting where the local share is 0 (a perfect `Share`
 //! mirror), no shadow ray towards a light behind the surface, no occlusion rays for a shader
