@@ -101,15 +101,11 @@ impl Scene {
     ) -> Option<PrimitiveHit> {
         let work = &mut scratch.work;
         if self.solids.is_empty() {
-            // Triangles only (the seed's scenes): no solid to dispatch to.
-            let frame = RayFrame::new(ray);
-            let triangles = &self.triangle_points;
+            // Triangles only (the seed's scenes): the octree's own triangle query.
             return self
                 .octree
-                .closest_hit_with(ray, t_max, work, |i, bound| {
-                    intersect(&frame, &triangles[i as usize], bound)
-                })
-                .map(|(i, h)| PrimitiveHit::Triangle(i, h));
+                .closest_hit_counted(&self.triangle_points, ray, t_max, work)
+                .map(|h| PrimitiveHit::Triangle(h.triangle, h.tri));
         }
         let spans = &mut scratch.spans;
         let frame = QueryFrame::new(ray);
@@ -188,15 +184,13 @@ impl Scene {
     /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and
     /// `t + t_error < t_max` (shadow and occlusion rays).
     pub fn any_hit(&self, ray: &Ray, t_max: f32, scratch: &mut QueryScratch) -> bool {
-        let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         if self.solids.is_empty() {
-            let triangles = &self.triangle_points;
-            return self.octree.any_hit_with(ray, t_max, work, |i| {
-                intersect(&frame.triangles, &triangles[i as usize], t_max)
-                    .is_some_and(|h| h.t + h.t_error < t_max)
-            });
+            return self
+                .octree
+                .any_hit_counted(&self.triangle_points, ray, t_max, work);
         }
+        let frame = QueryFrame::new(ray);
         let mut test = |i: u32| self.blocks(&frame, ray, i, t_max, spans);
         self.octree.any_hit_with(ray, t_max, work, &mut test)
             || self.unbounded_block(work, &mut test)

@@ -55,9 +55,19 @@ impl Octree {
     /// The closest hit of `ray` with `0 < t < t_max`: the smallest `t`, ties to the smallest
     /// triangle index, exactly as [`super::brute_force_closest_hit`] finds it.
     pub fn closest_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> Option<Hit> {
+        self.closest_hit_counted(triangles, ray, t_max, &mut QueryWork::default())
+    }
+
+    /// [`Octree::closest_hit`], adding the cells entered and the tests made to `work`.
+    pub fn closest_hit_counted(
+        &self,
+        triangles: &[[Vec3; 3]],
+        ray: &Ray,
+        t_max: f32,
+        work: &mut QueryWork,
+    ) -> Option<Hit> {
         let frame = RayFrame::new(ray);
-        let mut work = QueryWork::default();
-        self.closest_hit_with(ray, t_max, &mut work, |i, bound| {
+        self.closest_hit_with(ray, t_max, work, |i, bound| {
             intersect(&frame, &triangles[i as usize], bound)
         })
         .map(|(triangle, tri)| Hit { triangle, tri })
@@ -107,8 +117,19 @@ impl Octree {
     /// (shadow rays: a surface the light lies on, within rounding, does not block it). Stops at
     /// the first hit.
     pub fn any_hit(&self, triangles: &[[Vec3; 3]], ray: &Ray, t_max: f32) -> bool {
+        self.any_hit_counted(triangles, ray, t_max, &mut QueryWork::default())
+    }
+
+    /// [`Octree::any_hit`], adding the cells entered and the tests made to `work`.
+    pub fn any_hit_counted(
+        &self,
+        triangles: &[[Vec3; 3]],
+        ray: &Ray,
+        t_max: f32,
+        work: &mut QueryWork,
+    ) -> bool {
         let frame = RayFrame::new(ray);
-        self.any_hit_with(ray, t_max, &mut QueryWork::default(), |i| {
+        self.any_hit_with(ray, t_max, work, |i| {
             intersect(&frame, &triangles[i as usize], t_max)
                 .is_some_and(|h| h.t + h.t_error < t_max)
         })

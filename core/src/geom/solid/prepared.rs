@@ -360,7 +360,7 @@ impl Solids {
         }
         scratch.spans.clear();
         self.eval(root, ray, scratch);
-        let front = |b: &Boundary| b.t > b.t_error && b.t.is_finite();
+        let front = |b: &Boundary| shape::in_front(b.t, b.t_error);
         let first = scratch
             .spans
             .iter()

@@ -113,18 +113,24 @@ pub fn span(shape: &Shape, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     }
 }
 
+/// True if a crossing at `t` with error bound `t_error` lies provably in front of the ray's
+/// origin (and is a real crossing, not the open end of an unbounded span).
+#[inline]
+pub fn in_front(t: f32, t_error: f32) -> bool {
+    t > t_error && t.is_finite()
+}
+
 /// The first crossing of the ray `o + t·d` with `shape`'s surface in front of its origin (beyond
 /// the crossing's error bound) and below `t_max`, as `(t, t_error, face)`: exactly the first
 /// front end of [`span`], found with less work. A sphere's roots are compared with `t_max`
 /// before any error bound is computed, and the exit's bound only when the entry is behind.
 #[inline]
 pub fn first_crossing(shape: &Shape, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32, Face)> {
-    let front = |t: f32, t_error: f32| t > t_error && t.is_finite();
     let Shape::Sphere { radius } = *shape else {
         let s = span(shape, o, d)?;
         let first = [s.enter, s.exit]
             .into_iter()
-            .find(|c| front(c.t, c.t_error))?;
+            .find(|c| in_front(c.t, c.t_error))?;
         return (first.t < t_max).then_some((first.t, first.t_error, first.face));
     };
     let (t0, t1) = sphere_roots(radius, o, d)?;
@@ -134,7 +140,7 @@ pub fn first_crossing(shape: &Shape, o: Vec3, d: Vec3, t_max: f32) -> Option<(f3
     }
     for t in [t0, t1] {
         let t_error = crossing_error(o, d, t);
-        if front(t, t_error) {
+        if in_front(t, t_error) {
             return (t < t_max).then_some((t, t_error, 0));
         }
     }
