@@ -2,13 +2,19 @@
 //!
 //! [`serve`] answers the master's `Hello`, receives or finds the job's scene, and renders the
 //! requested lines in the order they arrive, until the master ends the session or the link
-//! closes. The same function runs in a thread of `strahl render`, in `strahl worker` over TCP or
-//! a serial port, and on a microcontroller. It allocates the scene and one line's buffers, sized
+//! closes. The same function runs in a thread of `strahl render`, in `strahl worker` over a
+//! serial port, and on a microcontroller. It allocates the scene and one line's buffers, sized
 //! from the scene; frames from the master are read into a buffer of
 //! [`crate::wire::MAX_MASTER_FRAME_LEN`] bytes on the stack. The scene
 //! arrives in windows of [`SCENE_WINDOW`] bytes, each asked for with `NeedScene`. Frames it cannot
 //! read are dropped and reported to the master with `Dropped`, so the master can find out
 //! (with a `Fence`) which requests were lost.
+//!
+//! The session decides every answer; where the answers go is an [`Outbox`]. [`serve`] uses
+//! [`Inline`], which renders each line request at once ([`LineBuffers::answer`]) and writes to
+//! the link. [`serve_with`] takes any outbox that keeps the answers in order: `strahl worker`
+//! over TCP renders on several threads that way (`strahl_tcp::threads`), and a benchmark
+//! answers without rendering to measure the master alone.
 //!
 //! The [`SceneCache`] outlives sessions: a worker that serves the next master, or the next job
 //! of the same master, with a scene it already has skips the transfer.
@@ -24,7 +30,6 @@ use crate::wire::message::{encode_pixels, Digest, Hello, MasterMessage, Refusal,
 use crate::wire::scene_blob::{decode_bundle, memory_estimate, ChunkOutcome, SceneAssembler};
 use crate::wire::{MAX_MASTER_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW};
 use alloc::sync::Arc;
-use alloc::vec;
 use alloc::vec::Vec;
 use embedded_io::{Read, Write};
 
@@ -37,6 +42,8 @@ pub struct NodeInfo<'a> {
     pub arch: &'a str,
     /// Bytes of memory the node can give a scene; larger scenes are refused.
     pub scene_memory: u64,
+    /// Lines it renders at once (its render threads; 0 counts as 1).
+    pub threads: u32,
 }
 
 /// The last scene a worker prepared, kept across jobs and sessions.
@@ -105,6 +112,120 @@ impl From<FrameWriteError> for WorkerError {
     }
 }
 
+/// One line request for an [`Outbox`] to render: the first pass of `line`, or with `mask`
+/// adaptive multisampling's second pass.
+#[derive(Clone, Copy, Debug)]
+pub struct LineRequest<'a> {
+    /// The job's scene.
+    pub scene: &'a Arc<Scene>,
+    /// The job.
+    pub job: u32,
+    /// The line, 0 is the top.
+    pub line: u32,
+    /// The second pass's pixels, one bit each.
+    pub mask: Option<&'a [u8]>,
+}
+
+/// Where a session's answers go. Every answer reaches the master in the order it is given here,
+/// line results included, so a master can tell from a later answer that an earlier request was
+/// lost (and a `FenceAck` follows every result asked for before its `Fence`).
+///
+/// [`Inline`] renders each request at once on the session's own thread; a host can render on
+/// several threads (`strahl_tcp::threads`) as long as it keeps that order.
+pub trait Outbox<L> {
+    /// Sends `msg` after every earlier answer.
+    ///
+    /// # Errors
+    /// The link's or the encoder's error; the session ends with it.
+    fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError>;
+
+    /// Renders `request` and sends its answer ([`LineBuffers::answer`]) after every earlier one.
+    ///
+    /// # Errors
+    /// The link's or the encoder's error; the session ends with it.
+    fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError>;
+}
+
+/// One line's buffers, sized from the scene on first use.
+#[derive(Clone, Debug, Default)]
+pub struct LineBuffers {
+    pixels: Vec<Pixel>,
+    wire: Vec<u8>,
+}
+
+impl LineBuffers {
+    /// Empty buffers.
+    pub fn new() -> Self {
+        LineBuffers::default()
+    }
+
+    /// Renders `request` and gives its answer: a `LineResult`, or a `Refused` for a line
+    /// outside the image or a mask that does not fit.
+    ///
+    /// # Errors
+    /// [`WorkerError::Encode`] on an internal error.
+    pub fn answer(&mut self, request: LineRequest<'_>) -> Result<WorkerMessage<'_>, WorkerError> {
+        let LineRequest {
+            scene,
+            job,
+            line,
+            mask,
+        } = request;
+        let width = scene.settings.width as usize;
+        self.pixels.resize(width, Pixel::default());
+        self.wire.resize(width * PIXEL_WIRE_BYTES, 0);
+        let rendered = match mask {
+            None => render_line(scene, line, &mut self.pixels),
+            Some(mask) => refine_line(scene, line, mask, &mut self.pixels),
+        };
+        let reason = match rendered {
+            Ok(rays) => {
+                encode_pixels(&self.pixels, &mut self.wire).map_err(WorkerError::Encode)?;
+                return Ok(WorkerMessage::LineResult {
+                    job,
+                    line,
+                    refined: mask.is_some(),
+                    rays,
+                    pixels: &self.wire,
+                });
+            }
+            Err(RenderError::LineOutOfRange) => Refusal::LineOutOfRange,
+            // The line buffers are sized from the scene, so only a mask can misfit.
+            Err(RenderError::WrongBufferLength) => {
+                debug_assert!(mask.is_some(), "line buffers sized from the scene");
+                Refusal::BadMask
+            }
+            Err(RenderError::NotAdaptive) => Refusal::BadMask,
+        };
+        Ok(WorkerMessage::Refused { job, reason })
+    }
+}
+
+/// The outbox of [`serve`]: renders each request at once and writes every answer to the link.
+#[derive(Debug, Default)]
+pub struct Inline {
+    writer: FrameWriter,
+    buffers: LineBuffers,
+}
+
+impl Inline {
+    /// An outbox with empty buffers.
+    pub fn new() -> Self {
+        Inline::default()
+    }
+}
+
+impl<L: Write> Outbox<L> for Inline {
+    fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
+        Ok(self.writer.send(link, msg)?)
+    }
+
+    fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError> {
+        let answer = self.buffers.answer(request)?;
+        Ok(self.writer.send(link, &answer)?)
+    }
+}
+
 /// The job a session works on.
 struct Job {
     id: u32,
@@ -118,27 +239,22 @@ enum Stage {
         assembler: SceneAssembler,
         asked: Option<u32>,
     },
-    /// Rendering: the scene and one line's buffers.
-    Ready {
-        scene: Arc<Scene>,
-        pixels: Vec<Pixel>,
-        wire: Vec<u8>,
-    },
+    /// Rendering.
+    Ready(Arc<Scene>),
     /// The job was refused; line requests for it are refused too.
     Refused(Refusal),
 }
 
-/// One session's state.
-struct Session<'n, L> {
-    link: L,
+/// One session's state; its answers go through an [`Outbox`].
+struct Session<'n> {
     node: &'n NodeInfo<'n>,
-    writer: FrameWriter,
     greeted: bool,
     job: Option<Job>,
     dropped: u32,
 }
 
-/// Serves one master over `link` until it ends the session or the link closes.
+/// Serves one master over `link` until it ends the session or the link closes, rendering each
+/// request at once ([`Inline`]).
 ///
 /// Read time-outs (a serial port with nothing to say) are waited through. A `Hello` in the
 /// middle of a session starts it afresh, keeping the cache.
@@ -151,18 +267,31 @@ pub fn serve<L: Read + Write>(
     node: &NodeInfo<'_>,
     cache: &mut SceneCache,
 ) -> Result<SessionEnd, WorkerError> {
+    serve_with(link, &mut Inline::new(), node, cache)
+}
+
+/// Serves one master: reads its requests from `link` and answers through `out` (which may write
+/// to `link` or elsewhere), until the master ends the session or the link closes. As [`serve`]
+/// otherwise.
+///
+/// # Errors
+/// As [`serve`], and whatever `out` reports.
+pub fn serve_with<L: Read, O: Outbox<L>>(
+    link: &mut L,
+    out: &mut O,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+) -> Result<SessionEnd, WorkerError> {
     let mut rx = [0u8; MAX_MASTER_FRAME_LEN];
     let mut reader = FrameReader::new(&mut rx[..]);
     let mut session = Session {
-        link,
         node,
-        writer: FrameWriter::new(),
         greeted: false,
         job: None,
         dropped: 0,
     };
     loop {
-        let event = match reader.next(session.link) {
+        let event = match reader.next(link) {
             Ok(event) => event,
             Err(LinkError::TimedOut) => continue,
             Err(LinkError::Closed) => return Ok(SessionEnd::Closed),
@@ -172,9 +301,10 @@ pub fn serve<L: Read + Write>(
             ReadEvent::Frame(payload) => MasterMessage::decode(payload),
             ReadEvent::Dropped(_) => Err(ProtocolError::Decode),
         };
+        let mut io = Io { link, out };
         match msg {
             Ok(msg) => {
-                if let Some(end) = session.handle(msg, cache)? {
+                if let Some(end) = session.handle(msg, cache, &mut io)? {
                     return Ok(end);
                 }
             }
@@ -182,32 +312,46 @@ pub fn serve<L: Read + Write>(
                 session.dropped = session.dropped.saturating_add(1);
                 if session.greeted {
                     let total = session.dropped;
-                    session.send(&WorkerMessage::Dropped { total })?;
+                    io.send(&WorkerMessage::Dropped { total })?;
                 }
             }
         }
     }
 }
 
-impl<L: Read + Write> Session<'_, &mut L> {
+/// The link and the outbox of one session, borrowed while a message is handled.
+struct Io<'a, L, O> {
+    link: &'a mut L,
+    out: &'a mut O,
+}
+
+impl<L, O: Outbox<L>> Io<'_, L, O> {
     fn send(&mut self, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        Ok(self.writer.send(self.link, msg)?)
+        self.out.send(self.link, msg)
     }
 
+    fn render(&mut self, request: LineRequest<'_>) -> Result<(), WorkerError> {
+        self.out.render(self.link, request)
+    }
+}
+
+impl Session<'_> {
     /// Handles one message; `Some` ends the session.
-    fn handle(
+    fn handle<L, O: Outbox<L>>(
         &mut self,
         msg: MasterMessage<'_>,
         cache: &mut SceneCache,
+        io: &mut Io<'_, L, O>,
     ) -> Result<Option<SessionEnd>, WorkerError> {
         match msg {
             MasterMessage::Hello(h) => {
                 let node = self.node;
-                self.send(&WorkerMessage::Hello(Hello {
+                io.send(&WorkerMessage::Hello(Hello {
                     version: PROTOCOL_VERSION,
                     name: node.name,
                     arch: node.arch,
                     scene_memory: node.scene_memory,
+                    threads: node.threads.max(1),
                 }))?;
                 if h.version != PROTOCOL_VERSION {
                     return Err(WorkerError::VersionMismatch { master: h.version });
@@ -222,47 +366,47 @@ impl<L: Read + Write> Session<'_, &mut L> {
                 job,
                 digest,
                 scene_len,
-            } => self.start_job(job, digest, scene_len, cache)?,
+            } => io.send(&self.start_job(job, digest, scene_len, cache))?,
             MasterMessage::SceneChunk {
                 digest,
                 offset,
                 bytes,
-            } => self.take_chunk(&digest, offset, bytes, cache)?,
-            MasterMessage::RenderLine { job, line } => self.render(job, line, None)?,
-            MasterMessage::RefineLine { job, line, mask } => self.render(job, line, Some(mask))?,
-            MasterMessage::Fence { seq } => self.send(&WorkerMessage::FenceAck { seq })?,
+            } => {
+                if let Some(answer) = self.take_chunk(&digest, offset, bytes, cache) {
+                    io.send(&answer)?;
+                }
+            }
+            MasterMessage::RenderLine { job, line } => self.render(job, line, None, io)?,
+            MasterMessage::RenderLines { job, first, count } => {
+                for line in (first..first.saturating_add(count)).take(count as usize) {
+                    self.render(job, line, None, io)?;
+                }
+            }
+            MasterMessage::RefineLine { job, line, mask } => {
+                self.render(job, line, Some(mask), io)?;
+            }
+            MasterMessage::Fence { seq } => io.send(&WorkerMessage::FenceAck { seq })?,
             MasterMessage::EndSession => return Ok(Some(SessionEnd::Ended)),
         }
         Ok(None)
     }
 
+    /// Starts (or re-announces) a job and gives the answer to its `Job` message.
     fn start_job(
         &mut self,
         id: u32,
         digest: Digest,
         scene_len: u32,
         cache: &mut SceneCache,
-    ) -> Result<(), WorkerError> {
+    ) -> WorkerMessage<'static> {
         // The same job announced again (the master heard nothing): answer where we stand.
         if let Some(job) = &self.job {
             if job.id == id && job.digest == digest {
-                let answer = match &job.stage {
-                    Stage::Loading { assembler, .. } => WorkerMessage::NeedScene {
-                        job: id,
-                        offset: assembler.expected(),
-                        restart: true,
-                    },
-                    Stage::Ready { .. } => WorkerMessage::Ready { job: id },
-                    Stage::Refused(reason) => WorkerMessage::Refused {
-                        job: id,
-                        reason: *reason,
-                    },
-                };
-                return self.send(&answer);
+                return stage_answer(id, &job.stage, true);
             }
         }
         let stage = if let Some(scene) = cache.get(&digest) {
-            ready(scene)
+            Stage::Ready(scene)
         } else if memory_estimate(scene_len, None) > self.node.scene_memory {
             Stage::Refused(Refusal::SceneTooLarge {
                 limit: self.node.scene_memory,
@@ -278,56 +422,43 @@ impl<L: Read + Write> Session<'_, &mut L> {
                 }),
             }
         };
-        let answer = match &stage {
-            Stage::Loading { .. } => WorkerMessage::NeedScene {
-                job: id,
-                offset: 0,
-                restart: true,
-            },
-            Stage::Ready { .. } => WorkerMessage::Ready { job: id },
-            Stage::Refused(reason) => WorkerMessage::Refused {
-                job: id,
-                reason: *reason,
-            },
-        };
+        let answer = stage_answer(id, &stage, false);
         self.job = Some(Job { id, digest, stage });
-        self.send(&answer)
+        answer
     }
 
+    /// Takes a scene chunk; gives the answer it calls for, if any.
     fn take_chunk(
         &mut self,
         digest: &Digest,
         offset: u32,
         bytes: &[u8],
         cache: &mut SceneCache,
-    ) -> Result<(), WorkerError> {
-        let Some(job) = &mut self.job else {
-            return Ok(());
-        };
+    ) -> Option<WorkerMessage<'static>> {
+        let job = self.job.as_mut()?;
         let Stage::Loading { assembler, asked } = &mut job.stage else {
-            return Ok(());
+            return None;
         };
         let id = job.id;
         match assembler.push(digest, offset, bytes) {
-            ChunkOutcome::Stale => Ok(()),
+            ChunkOutcome::Stale => None,
             ChunkOutcome::Appended => {
                 let expected = assembler.expected();
                 // Crossing a window boundary asks for the next window.
-                if expected / SCENE_WINDOW == offset / SCENE_WINDOW {
-                    return Ok(());
-                }
-                self.send(&WorkerMessage::NeedScene {
-                    job: id,
-                    offset: expected,
-                    restart: false,
-                })
+                (expected / SCENE_WINDOW != offset / SCENE_WINDOW).then_some(
+                    WorkerMessage::NeedScene {
+                        job: id,
+                        offset: expected,
+                        restart: false,
+                    },
+                )
             }
             ChunkOutcome::Gap { expected } => {
                 if *asked == Some(expected) {
-                    return Ok(());
+                    return None;
                 }
                 *asked = Some(expected);
-                self.send(&WorkerMessage::NeedScene {
+                Some(WorkerMessage::NeedScene {
                     job: id,
                     offset: expected,
                     restart: true,
@@ -341,63 +472,37 @@ impl<L: Read + Write> Session<'_, &mut L> {
                     job.stage = match prepare(assembler, self.node.scene_memory) {
                         Ok(scene) => {
                             cache.put(job.digest, Arc::clone(&scene));
-                            ready(scene)
+                            Stage::Ready(scene)
                         }
                         Err(reason) => Stage::Refused(reason),
                     };
                 }
-                let answer = match &job.stage {
-                    Stage::Refused(reason) => WorkerMessage::Refused {
-                        job: id,
-                        reason: *reason,
-                    },
-                    _ => WorkerMessage::Ready { job: id },
-                };
-                self.send(&answer)
+                Some(stage_answer(id, &job.stage, true))
             }
         }
     }
 
     /// Renders `line` (the first pass), or with `mask` the second pass of adaptive
-    /// multisampling, and sends the result.
-    fn render(&mut self, id: u32, line: u32, mask: Option<&[u8]>) -> Result<(), WorkerError> {
-        let refusal = match &mut self.job {
+    /// multisampling, through the outbox; refuses a request for another job or a refused one.
+    fn render<L, O: Outbox<L>>(
+        &mut self,
+        id: u32,
+        line: u32,
+        mask: Option<&[u8]>,
+        io: &mut Io<'_, L, O>,
+    ) -> Result<(), WorkerError> {
+        let reason = match &self.job {
             Some(Job {
                 id: current,
-                stage:
-                    Stage::Ready {
-                        scene,
-                        pixels,
-                        wire,
-                    },
+                stage: Stage::Ready(scene),
                 ..
             }) if *current == id => {
-                let rendered = match mask {
-                    None => render_line(scene, line, pixels),
-                    Some(mask) => refine_line(scene, line, mask, pixels),
-                };
-                match rendered {
-                    Ok(rays) => {
-                        encode_pixels(pixels, wire).map_err(WorkerError::Encode)?;
-                        return Ok(self.writer.send(
-                            self.link,
-                            &WorkerMessage::LineResult {
-                                job: id,
-                                line,
-                                refined: mask.is_some(),
-                                rays,
-                                pixels: wire,
-                            },
-                        )?);
-                    }
-                    Err(RenderError::LineOutOfRange) => Refusal::LineOutOfRange,
-                    // The line buffers are sized from the scene, so only a mask can misfit.
-                    Err(RenderError::WrongBufferLength) => {
-                        debug_assert!(mask.is_some(), "line buffers sized from the scene");
-                        Refusal::BadMask
-                    }
-                    Err(RenderError::NotAdaptive) => Refusal::BadMask,
-                }
+                return io.render(LineRequest {
+                    scene,
+                    job: id,
+                    line,
+                    mask,
+                });
             }
             Some(Job {
                 id: current,
@@ -406,20 +511,24 @@ impl<L: Read + Write> Session<'_, &mut L> {
             }) if *current == id => *reason,
             _ => Refusal::UnknownJob,
         };
-        self.send(&WorkerMessage::Refused {
-            job: id,
-            reason: refusal,
-        })
+        io.send(&WorkerMessage::Refused { job: id, reason })
     }
 }
 
-/// The ready stage for `scene`, with one line's buffers.
-fn ready(scene: Arc<Scene>) -> Stage {
-    let width = scene.settings.width as usize;
-    Stage::Ready {
-        scene,
-        pixels: vec![Pixel::default(); width],
-        wire: vec![0; width * PIXEL_WIRE_BYTES],
+/// The answer that says where job `id` stands: `NeedScene` (from the next byte wanted; a
+/// fresh job asks from 0 with `restart`), `Ready` or `Refused`.
+fn stage_answer(id: u32, stage: &Stage, again: bool) -> WorkerMessage<'static> {
+    match stage {
+        Stage::Loading { assembler, .. } => WorkerMessage::NeedScene {
+            job: id,
+            offset: if again { assembler.expected() } else { 0 },
+            restart: true,
+        },
+        Stage::Ready(_) => WorkerMessage::Ready { job: id },
+        Stage::Refused(reason) => WorkerMessage::Refused {
+            job: id,
+            reason: *reason,
+        },
     }
 }
 

@@ -172,19 +172,32 @@ fn bench_scaling_prints_a_speedup_table() {
         .map(|l| l.split_whitespace().filter(|w| *w != "|").collect())
         .collect();
     assert_eq!(rows.len(), 4, "{text}");
+    // workers | in-process s, speedup, master busy, lines/request | TCP s, speedup | one
+    // process on N threads s, speedup | model s, speedup, efficiency.
     for (i, row) in rows.iter().enumerate() {
+        assert_eq!(row.len(), 12, "{text}");
         assert_eq!(row[0], (i + 1).to_string(), "{text}");
-        // Measured columns for 1 and 2 workers (in-process and TCP), model for all.
-        let measured = row[1..5].iter().all(|v| v.parse::<f64>().is_ok());
+        // Measured columns for 1 and 2 workers, model for all.
+        let measured = [1, 2, 4, 5, 6, 7, 8]
+            .iter()
+            .all(|&c| row[c].parse::<f64>().is_ok())
+            && row[3].ends_with('%');
         assert_eq!(measured, i < 2, "row {}: {text}", i + 1);
-        let model: f64 = row[5].parse().unwrap_or(f64::NAN);
+        let model: f64 = row[9].parse().unwrap_or(f64::NAN);
         assert!(model > 0.0, "{text}");
     }
     // Speedup of one worker against itself is 1 in every column.
     assert_eq!(
-        (rows[0][2], rows[0][4], rows[0][6]),
-        ("1.00", "1.00", "1.00")
+        (rows[0][2], rows[0][6], rows[0][8], rows[0][10]),
+        ("1.00", "1.00", "1.00", "1.00")
     );
+    // The master's load without rendering: results per second on one core.
+    let per_core = text
+        .split(" results/s on one core")
+        .next()
+        .and_then(|t| t.rsplit(' ').next())
+        .and_then(|n| n.parse::<f64>().ok());
+    assert!(per_core.is_some_and(|r| r > 0.0), "{text}");
 }
 
 #[test]

@@ -308,6 +308,7 @@ impl PtyWorker {
                     name: &name,
                     arch: std::env::consts::ARCH,
                     scene_memory: u64::MAX,
+                    threads: 1,
                 };
                 let mut cache = SceneCache::new();
                 let mut ends = Vec::new();
@@ -354,6 +355,7 @@ impl PtyWorker {
             name: "test-stop",
             arch: "test",
             scene_memory: 0,
+            threads: 0,
         });
         for msg in [hello, MasterMessage::EndSession] {
             bytes.extend_from_slice(frames.encode(&msg).map_err(|e| format!("{e:?}"))?);

@@ -16,421 +16,21 @@
 //! way.
 
 use embedded_io_adapters::std::FromStd;
-use std::collections::BTreeMap;
 use std::error::Error;
-use std::io::{BufRead as _, BufReader, Read as _, Write as _};
+use std::io::{Read as _, Write as _};
 use std::net::{Shutdown, TcpListener, TcpStream};
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, ExitStatus, Stdio};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex, PoisonError};
+use std::sync::{Arc, Mutex, PoisonError};
 use std::thread;
 use std::time::{Duration, Instant};
 use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::wire::message::{Hello, MasterMessage, WorkerMessage};
 use strahl_core::wire::{MAX_FRAME_LEN, PROTOCOL_VERSION};
 
-type TestResult = Result<(), Box<dyn Error>>;
+mod support;
 
-/// The `strahl` binary under test.
-const BIN: &str = env!("CARGO_BIN_EXE_strahl");
-
-/// The longest a render may take before the test kills it and fails.
-const RENDER_TIMEOUT: Duration = Duration::from_secs(90);
-
-/// CPU time (in clock ticks, 10 ms each) after which a worker process is surely rendering lines:
-/// starting, receiving the scene and building its octree take a few ticks.
-const RENDERING_TICKS: u64 = 10;
-
-/// An image size for the demo room.
-#[derive(Clone, Copy, Debug)]
-struct Size {
-    width: u32,
-    height: u32,
-}
-
-/// About 0.2 s of CPU time with reflections.
-const SMALL: Size = Size {
-    width: 320,
-    height: 240,
-};
-
-/// About 0.7 s of CPU time with reflections.
-const MEDIUM: Size = Size {
-    width: 640,
-    height: 480,
-};
-
-/// About 2.7 s of CPU time with reflections: renders that must outlast a kill, cut or hang.
-const LARGE: Size = Size {
-    width: 1280,
-    height: 960,
-};
-
-/// The demo room's configuration in the repository (rendered with `-o`, so nothing is written
-/// next to it).
-fn room_config() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room/raytracer.cfg")
-}
-
-/// `render ROOM -o OUT --width W --height H --reflections on EXTRA...`.
-fn render_args(size: Size, out: &Path, extra: &[&str]) -> Vec<String> {
-    let mut args: Vec<String> = vec![
-        "render".into(),
-        room_config().display().to_string(),
-        "-o".into(),
-        out.display().to_string(),
-        "--width".into(),
-        size.width.to_string(),
-        "--height".into(),
-        size.height.to_string(),
-        "--reflections".into(),
-        "on".into(),
-    ];
-    args.extend(extra.iter().map(|s| s.to_string()));
-    args
-}
-
-/// What a child wrote on stderr so far, and whether it has closed it.
-#[derive(Default)]
-struct Captured {
-    text: String,
-    closed: bool,
-}
-
-/// A running `strahl` process whose stderr is collected by a thread; killed (if still running)
-/// and reaped when dropped, so no test leaves processes behind, even when it fails.
-struct Proc {
-    what: String,
-    child: Child,
-    stderr: Arc<(Mutex<Captured>, Condvar)>,
-}
-
-impl Proc {
-    /// Starts `strahl ARGS...` with stdin and stdout closed and stderr collected.
-    fn spawn<S: AsRef<str>>(args: &[S]) -> Result<Proc, Box<dyn Error>> {
-        let args: Vec<&str> = args.iter().map(AsRef::as_ref).collect();
-        let mut child = Command::new(BIN)
-            .args(&args)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped())
-            .spawn()?;
-        let pipe = child.stderr.take().ok_or("no stderr pipe")?;
-        let stderr = Arc::new((Mutex::new(Captured::default()), Condvar::new()));
-        let shared = Arc::clone(&stderr);
-        thread::spawn(move || {
-            let (lock, changed) = &*shared;
-            let mut reader = BufReader::new(pipe);
-            let mut line = Vec::new();
-            loop {
-                line.clear();
-                match reader.read_until(b'\n', &mut line) {
-                    Ok(0) | Err(_) => break,
-                    Ok(_) => {
-                        let mut c = lock.lock().unwrap_or_else(PoisonError::into_inner);
-                        c.text.push_str(&String::from_utf8_lossy(&line));
-                        changed.notify_all();
-                    }
-                }
-            }
-            lock.lock().unwrap_or_else(PoisonError::into_inner).closed = true;
-            changed.notify_all();
-        });
-        Ok(Proc {
-            what: format!("strahl {}", args.join(" ")),
-            child,
-            stderr,
-        })
-    }
-
-    /// Starts `strahl worker --listen 127.0.0.1:0 --name NAME` and returns it with the address
-    /// it printed.
-    fn listening_worker(name: &str) -> Result<(Proc, String), Box<dyn Error>> {
-        let p = Proc::spawn(&["worker", "--listen", "127.0.0.1:0", "--name", name])?;
-        let address = p.listen_address()?;
-        Ok((p, address))
-    }
-
-    fn pid(&self) -> u32 {
-        self.child.id()
-    }
-
-    /// Everything it wrote on stderr so far.
-    fn stderr(&self) -> String {
-        let (lock, _) = &*self.stderr;
-        lock.lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .text
-            .clone()
-    }
-
-    /// Waits up to `timeout` until its stderr satisfies `done` or is closed; returns whether
-    /// `done` was satisfied, and the text.
-    fn wait_stderr(&self, timeout: Duration, done: impl Fn(&str) -> bool) -> (bool, String) {
-        let (lock, changed) = &*self.stderr;
-        let deadline = Instant::now() + timeout;
-        let mut c = lock.lock().unwrap_or_else(PoisonError::into_inner);
-        loop {
-            if done(&c.text) {
-                return (true, c.text.clone());
-            }
-            let now = Instant::now();
-            if c.closed || now >= deadline {
-                return (false, c.text.clone());
-            }
-            c = changed
-                .wait_timeout(c, deadline - now)
-                .unwrap_or_else(PoisonError::into_inner)
-                .0;
-        }
-    }
-
-    /// The address a listening worker printed: `strahl worker NAME: listening on ADDR`.
-    fn listen_address(&self) -> Result<String, Box<dyn Error>> {
-        const MARK: &str = ": listening on ";
-        let (found, text) = self.wait_stderr(Duration::from_secs(30), |t| {
-            t.lines().any(|l| l.contains(MARK))
-        });
-        if !found {
-            return Err(format!("`{}` printed no address:\n{text}", self.what).into());
-        }
-        let line = text
-            .lines()
-            .find(|l| l.contains(MARK))
-            .ok_or("no listening line")?;
-        let at = line.find(MARK).ok_or("no listening line")? + MARK.len();
-        Ok(line[at..].trim().to_string())
-    }
-
-    /// Whether it has not exited yet.
-    fn is_running(&mut self) -> bool {
-        matches!(self.child.try_wait(), Ok(None))
-    }
-
-    /// Waits up to `timeout` for it to exit (then up to 5 s more for its stderr to close);
-    /// kills it and fails if it does not.
-    fn wait(&mut self, timeout: Duration) -> Result<ExitStatus, Box<dyn Error>> {
-        let deadline = Instant::now() + timeout;
-        let status = loop {
-            if let Some(status) = self.child.try_wait()? {
-                break status;
-            }
-            if Instant::now() >= deadline {
-                self.kill();
-                return Err(format!(
-                    "`{}` did not exit within {timeout:?}; stderr:\n{}",
-                    self.what,
-                    self.stderr()
-                )
-                .into());
-            }
-            thread::sleep(Duration::from_millis(10));
-        };
-        // Processes it started may hold its stderr a little longer; do not wait for them long.
-        self.wait_stderr(Duration::from_secs(5), |_| false);
-        Ok(status)
-    }
-
-    /// Kills it (SIGKILL) and reaps it.
-    fn kill(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        self.kill();
-    }
-}
-
-/// How a render ended.
-struct Rendered {
-    status: ExitStatus,
-    stderr: String,
-}
-
-impl Rendered {
-    fn assert_success(&self) {
-        assert!(
-            self.status.success(),
-            "render failed ({:?}):\n{}",
-            self.status.code(),
-            self.stderr
-        );
-    }
-}
-
-/// Runs a render to its end.
-fn render(size: Size, out: &Path, extra: &[&str]) -> Result<Rendered, Box<dyn Error>> {
-    finish(Proc::spawn(&render_args(size, out, extra))?)
-}
-
-/// Waits for a render started with [`Proc::spawn`].
-fn finish(mut p: Proc) -> Result<Rendered, Box<dyn Error>> {
-    let status = p.wait(RENDER_TIMEOUT)?;
-    Ok(Rendered {
-        status,
-        stderr: p.stderr(),
-    })
-}
-
-/// The image one in-process worker renders (`--workers 1`) at `size`, rendered once per test
-/// run.
-fn reference(size: Size) -> Result<Vec<u8>, Box<dyn Error>> {
-    static IMAGES: Mutex<BTreeMap<(u32, u32), Vec<u8>>> = Mutex::new(BTreeMap::new());
-    let mut images = IMAGES.lock().unwrap_or_else(PoisonError::into_inner);
-    let key = (size.width, size.height);
-    if let Some(bytes) = images.get(&key) {
-        return Ok(bytes.clone());
-    }
-    let dir = tempfile::tempdir()?;
-    let out = dir.path().join("reference.bmp");
-    let r = render(size, &out, &["--workers", "1", "-q"])?;
-    r.assert_success();
-    let bytes = std::fs::read(&out)?;
-    images.insert(key, bytes.clone());
-    Ok(bytes)
-}
-
-/// Fails unless the image at `path` is byte for byte the reference image of `size`.
-fn assert_reference_image(path: &Path, size: Size) -> TestResult {
-    let got = std::fs::read(path)?;
-    let want = reference(size)?;
-    if got != want {
-        let first = got.iter().zip(&want).position(|(a, b)| a != b);
-        return Err(format!(
-            "{} differs from the --workers 1 image: {} vs {} bytes, first difference at {first:?}",
-            path.display(),
-            got.len(),
-            want.len()
-        )
-        .into());
-    }
-    Ok(())
-}
-
-/// One line of the per-worker table.
-#[derive(Debug)]
-struct Row {
-    name: String,
-    lines: u32,
-    reissued: u32,
-    /// `ok`, or why the worker was lost.
-    status: String,
-}
-
-/// The per-worker table from a render's stderr: the lines after the header that have a rate.
-fn table(stderr: &str) -> Vec<Row> {
-    stderr
-        .lines()
-        .skip_while(|l| !(l.starts_with("worker ") && l.trim_end().ends_with("status")))
-        .skip(1)
-        .filter_map(parse_row)
-        .collect()
-}
-
-/// `NAME LINK LINES DUP RAYS BUSY RATE.. rays/s REISSUED DROPPED  STATUS...`.
-fn parse_row(line: &str) -> Option<Row> {
-    let mut cols = line.split_whitespace();
-    let name = cols.next()?.to_string();
-    let lines = cols.nth(1)?.parse().ok()?;
-    let rest = line[line.find("rays/s")? + "rays/s".len()..].trim_start();
-    let (reissued, rest) = rest.split_once(char::is_whitespace)?;
-    let (_dropped, status) = rest.trim_start().split_once(char::is_whitespace)?;
-    Some(Row {
-        name,
-        lines,
-        reissued: reissued.parse().ok()?,
-        status: status.trim().to_string(),
-    })
-}
-
-/// The table row of worker `name`.
-fn row<'a>(rows: &'a [Row], name: &str, stderr: &str) -> Result<&'a Row, String> {
-    rows.iter()
-        .find(|r| r.name == name)
-        .ok_or_else(|| format!("no table row for {name}:\n{stderr}"))
-}
-
-/// Fails unless worker `name` finished the render (status `ok`).
-fn assert_ok(r: &Rendered, name: &str) -> TestResult {
-    let rows = table(&r.stderr);
-    let w = row(&rows, name, &r.stderr)?;
-    assert_eq!(w.status, "ok", "{name}:\n{}", r.stderr);
-    Ok(())
-}
-
-/// Fails unless worker `name` was lost after it had taken work (its lines were re-queued);
-/// returns why it was lost.
-fn assert_lost(r: &Rendered, name: &str) -> Result<String, Box<dyn Error>> {
-    let rows = table(&r.stderr);
-    let w = row(&rows, name, &r.stderr)?;
-    assert_ne!(w.status, "ok", "{name} was not lost:\n{}", r.stderr);
-    assert!(
-        w.reissued >= 1,
-        "{name}'s lines were not re-queued:\n{}",
-        r.stderr
-    );
-    assert!(
-        r.stderr.contains(&format!("warning: worker {name} (")),
-        "no warning about {name}:\n{}",
-        r.stderr
-    );
-    Ok(w.status.clone())
-}
-
-/// CPU time (user and system, in clock ticks) process `pid` has used, from `/proc`.
-fn cpu_ticks(pid: u32) -> Option<u64> {
-    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
-    // The fields after the command name (which is in parentheses and may hold spaces); utime
-    // and stime are fields 14 and 15.
-    let fields: Vec<&str> = stat[stat.rfind(')')? + 1..].split_whitespace().collect();
-    let utime: u64 = fields.get(11)?.parse().ok()?;
-    let stime: u64 = fields.get(12)?.parse().ok()?;
-    Some(utime + stime)
-}
-
-/// Waits until worker `p` is rendering lines: it has used [`RENDERING_TICKS`] of CPU time.
-/// Without `/proc`, waits 0.4 s instead.
-fn wait_until_rendering(p: &mut Proc) -> TestResult {
-    let start = Instant::now();
-    loop {
-        if !p.is_running() {
-            return Err(format!("{} exited:\n{}", p.what, p.stderr()).into());
-        }
-        match cpu_ticks(p.pid()) {
-            Some(t) if t >= RENDERING_TICKS => return Ok(()),
-            Some(_) => {}
-            None => {
-                thread::sleep(Duration::from_millis(400));
-                return Ok(());
-            }
-        }
-        if start.elapsed() > Duration::from_secs(60) {
-            return Err(format!("{} never started rendering", p.what).into());
-        }
-        thread::sleep(Duration::from_millis(2));
-    }
-}
-
-/// Waits until each of `workers` is rendering, checks that the render `master` is still
-/// running, and kills the workers.
-fn kill_mid_render(master: &mut Proc, workers: &mut [&mut Proc]) -> TestResult {
-    for w in workers.iter_mut() {
-        wait_until_rendering(w)?;
-    }
-    assert!(
-        master.is_running(),
-        "the render ended before the workers were killed:\n{}",
-        master.stderr()
-    );
-    for w in workers.iter_mut() {
-        w.kill();
-    }
-    Ok(())
-}
+use support::*;
 
 /// What the proxy does to a connection once its byte budget from the worker is spent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -637,6 +237,7 @@ fn hello(version: u32, name: &str) -> Hello<'_> {
         name,
         arch: "test",
         scene_memory: 0,
+        threads: 0,
     }
 }
 
@@ -759,6 +360,78 @@ fn worker_killed_mid_render_is_reported_and_the_image_is_complete() -> TestResul
     assert_lost(&r, "victim")?;
     assert_ok(&r, "survivor-a")?;
     assert_ok(&r, "survivor-b")?;
+    Ok(())
+}
+
+#[test]
+fn multi_threaded_workers_render_the_same_image_as_one_thread() -> TestResult {
+    // One worker on three threads and one on one thread, with one-line and four-line requests:
+    // every image is the --workers 1 image, and the table shows each worker's threads.
+    let (_three, three) = Proc::listening_worker_with("three-threads", &["--threads", "3"])?;
+    let (_one, one) = Proc::listening_worker_with("one-thread", &["--threads", "1"])?;
+    let dir = tempfile::tempdir()?;
+    for (i, per_request) in ["1", "4"].into_iter().enumerate() {
+        for (name, address, threads) in [("three-threads", &three, 3), ("one-thread", &one, 1)] {
+            let out = dir.path().join(format!("{name}-{i}.bmp"));
+            let args = [
+                "--workers",
+                "0",
+                "--worker",
+                address,
+                "--lines-per-request",
+                per_request,
+            ];
+            let r = render(SMALL, &out, &args)?;
+            r.assert_success();
+            assert_reference_image(&out, SMALL)?;
+            let rows = table(&r.stderr);
+            let w = row(&rows, name, &r.stderr)?;
+            assert_eq!(
+                (w.threads, w.lines),
+                (threads, SMALL.height),
+                "{}",
+                r.stderr
+            );
+        }
+    }
+    Ok(())
+}
+
+#[test]
+fn worker_killed_with_lines_in_flight_on_several_threads_loses_nothing() -> TestResult {
+    // The victim renders on four threads with four-line requests: when it is killed it holds
+    // many lines, requested together and rendering on several threads. They are re-issued one
+    // by one, and the image is complete and exact.
+    let (mut victim, v) = Proc::listening_worker_with("victim-4t", &["--threads", "4"])?;
+    let (_s, s) = Proc::listening_worker_with("survivor-1t", &["--threads", "1"])?;
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let mut master = Proc::spawn(&render_args(
+        LARGE,
+        &out,
+        &[
+            "--workers",
+            "0",
+            "--worker",
+            &v,
+            "--worker",
+            &s,
+            "--lines-per-request",
+            "4",
+        ],
+    ))?;
+    kill_mid_render(&mut master, &mut [&mut victim])?;
+    let r = finish(master)?;
+    r.assert_success();
+    assert_reference_image(&out, LARGE)?;
+    assert_lost(&r, "victim-4t")?;
+    assert_ok(&r, "survivor-1t")?;
+    let rows = table(&r.stderr);
+    let lost = row(&rows, "victim-4t", &r.stderr)?;
+    // Window 2 × 4 threads × 4 lines: far more than one line was in flight.
+    assert!(lost.reissued > 4, "{}", r.stderr);
+    let lines: u32 = rows.iter().map(|w| w.lines).sum();
+    assert_eq!(lines, LARGE.height, "each line is used once:\n{}", r.stderr);
     Ok(())
 }
 

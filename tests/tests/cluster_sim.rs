@@ -189,6 +189,7 @@ fn table(workers: &[WorkerReport]) -> String {
 fn options(window: u32, timeout_ms: u64) -> MasterOptions {
     MasterOptions {
         window,
+        lines_per_request: None,
         probe_interval: Duration::from_millis(50),
         worker_timeout: Duration::from_millis(timeout_ms),
         wait_for_workers: Duration::from_secs(30),
@@ -949,7 +950,11 @@ fn slow_worker_lines_are_copied_and_duplicates_counted() {
         &prepared.job(),
         vec![slow, fast],
         None,
-        &options(2, 5_000),
+        // The holds watch single-line requests.
+        &MasterOptions {
+            lines_per_request: Some(1),
+            ..options(2, 5_000)
+        },
         &on_line,
         &|_| {},
     )

@@ -26,9 +26,9 @@ use strahl_core::wire::scene_blob::{
     decode_bundle, digest, ChunkOutcome, SceneAssembler, SceneBlob,
 };
 use strahl_core::wire::{
-    frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_MASK_LEN, MAX_MASTER_FRAME_LEN,
-    MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN, MAX_WIDTH,
-    PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
+    frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN,
+    MAX_MASTER_FRAME_LEN, MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN,
+    MAX_WIDTH, PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -247,6 +247,7 @@ fn master_samples<'a>(names: &'a str, chunk: &'a [u8]) -> Vec<MasterMessage<'a>>
             name: names,
             arch: ARCH,
             scene_memory: 0,
+            threads: 0,
         }),
         MasterMessage::Job {
             job: 3,
@@ -275,6 +276,11 @@ fn master_samples<'a>(names: &'a str, chunk: &'a [u8]) -> Vec<MasterMessage<'a>>
             line: 17,
             mask: &[0b1010_0001, 0x7F],
         },
+        MasterMessage::RenderLines {
+            job: 3,
+            first: 17,
+            count: MAX_LINES_PER_REQUEST,
+        },
     ]
 }
 
@@ -286,6 +292,7 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
             name: NAME,
             arch: ARCH,
             scene_memory: 1 << 40,
+            threads: 16,
         }),
         WorkerMessage::NeedScene {
             job: 3,
@@ -340,6 +347,7 @@ fn master_variant(m: &MasterMessage<'_>) -> usize {
         MasterMessage::Fence { .. } => 4,
         MasterMessage::EndSession => 5,
         MasterMessage::RefineLine { .. } => 6,
+        MasterMessage::RenderLines { .. } => 7,
     }
 }
 
@@ -434,6 +442,7 @@ fn largest_master_messages_fit_a_worker_buffer() {
             name: &name,
             arch: &arch,
             scene_memory: u64::MAX,
+            threads: u32::MAX,
         }),
         MasterMessage::Job {
             job: u32::MAX,
@@ -448,6 +457,11 @@ fn largest_master_messages_fit_a_worker_buffer() {
             job: u32::MAX,
             line: u32::MAX,
             mask: &mask,
+        },
+        MasterMessage::RenderLines {
+            job: u32::MAX,
+            first: u32::MAX,
+            count: MAX_LINES_PER_REQUEST,
         },
         MasterMessage::Fence { seq: u32::MAX },
     ];
@@ -510,7 +524,7 @@ fn every_message_variant_round_trips() {
     );
     let frames = frames_of(&events);
     assert_eq!(frames.len(), masters.len(), "{events:?}");
-    let mut seen = [false; 7];
+    let mut seen = [false; 8];
     for (payload, m) in frames.iter().zip(&masters) {
         let got = MasterMessage::decode(payload).expect("master message decodes");
         assert_eq!(&got, m);
@@ -938,6 +952,30 @@ fn refine_masks_are_bounded() {
 }
 
 #[test]
+fn multi_line_requests_are_bounded() {
+    let request = |count| {
+        payload_of(&MasterMessage::RenderLines {
+            job: 1,
+            first: 5,
+            count,
+        })
+    };
+    for count in [0, MAX_LINES_PER_REQUEST + 1, u32::MAX] {
+        assert_eq!(
+            MasterMessage::decode(&request(count)),
+            Err(ProtocolError::BadRequest),
+            "{count} lines"
+        );
+    }
+    for count in [1, 2, MAX_LINES_PER_REQUEST] {
+        assert!(
+            MasterMessage::decode(&request(count)).is_ok(),
+            "{count} lines"
+        );
+    }
+}
+
+#[test]
 fn hello_names_are_bounded() {
     let ok = long_name('x', MAX_NAME_LEN);
     let long = long_name('x', MAX_NAME_LEN + 1);
@@ -947,6 +985,7 @@ fn hello_names_are_bounded() {
             name,
             arch,
             scene_memory: 0,
+            threads: 0,
         }
     }
     for (name, arch) in [(long.as_str(), ARCH), (NAME, long.as_str())] {

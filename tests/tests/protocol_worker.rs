@@ -25,6 +25,7 @@ use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
 use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_tcp::threads::serve_threaded;
 
 // ---------------------------------------------------------------------------------------------
 // The link and the script
@@ -88,6 +89,7 @@ impl Script {
             name: "master",
             arch: "x86_64",
             scene_memory: 0,
+            threads: 0,
         }))
     }
 
@@ -128,6 +130,7 @@ enum Out {
         name: String,
         arch: String,
         scene_memory: u64,
+        threads: u32,
     },
     NeedScene {
         job: u32,
@@ -170,6 +173,7 @@ impl Out {
                 name: h.name.to_owned(),
                 arch: h.arch.to_owned(),
                 scene_memory: h.scene_memory,
+                threads: h.threads,
             },
             WorkerMessage::NeedScene {
                 job,
@@ -240,6 +244,7 @@ fn node(scene_memory: u64) -> NodeInfo<'static> {
         name: NAME,
         arch: ARCH,
         scene_memory,
+        threads: 1,
     }
 }
 
@@ -249,17 +254,52 @@ fn worker_hello(scene_memory: u64) -> Out {
         name: NAME.to_owned(),
         arch: ARCH.to_owned(),
         scene_memory,
+        threads: 1,
+    }
+}
+
+/// A std reader that gives the script in pieces of `piece` bytes.
+struct StdPieces<'a> {
+    input: &'a [u8],
+    piece: usize,
+}
+
+impl std::io::Read for StdPieces<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.piece.min(buf.len()).min(self.input.len());
+        buf[..n].copy_from_slice(&self.input[..n]);
+        self.input = &self.input[n..];
+        Ok(n)
+    }
+}
+
+/// A std writer into a shared buffer (the threaded worker's writer runs on its own thread).
+#[derive(Clone, Default)]
+struct SharedOutput(Arc<std::sync::Mutex<Vec<u8>>>);
+
+impl std::io::Write for SharedOutput {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let mut out = self.0.lock().map_err(|_| std::io::ErrorKind::Other)?;
+        out.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
     }
 }
 
 /// Runs `serve` on the script, fed in pieces of `piece` bytes; returns its result and what the
-/// worker sent.
+/// worker sent. The same script through the threaded worker of `strahl worker`
+/// (`strahl_tcp::threads`, 3 render threads, with a copy of the cache) must give the same
+/// result and the same bytes, in the same order.
 fn run_pieces(
     script: &Script,
     node: &NodeInfo<'_>,
     cache: &mut SceneCache,
     piece: usize,
 ) -> (Result<SessionEnd, WorkerError>, Vec<Out>) {
+    let mut threaded_cache = cache.clone();
     let mut link = ScriptLink {
         input: script.bytes.clone(),
         pos: 0,
@@ -267,6 +307,22 @@ fn run_pieces(
         output: Vec::new(),
     };
     let result = serve(&mut link, node, cache);
+    let output = SharedOutput::default();
+    let reader = StdPieces {
+        input: &script.bytes,
+        piece,
+    };
+    let threaded = serve_threaded(reader, output.clone(), &|| {}, node, &mut threaded_cache, 3);
+    assert_eq!(
+        threaded, result,
+        "the threaded worker ends the session alike"
+    );
+    let threaded_bytes = output.0.lock().expect("not poisoned").clone();
+    assert!(
+        threaded_bytes == link.output,
+        "the threaded worker sends other bytes: {:?}",
+        decode_output(&threaded_bytes)
+    );
     (result, decode_output(&link.output))
 }
 
@@ -492,6 +548,49 @@ fn cached_scene_skips_the_transfer() {
 }
 
 #[test]
+fn a_multi_line_request_is_answered_line_by_line_in_order() {
+    let f = room();
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .send(MasterMessage::RenderLines {
+            job: 1,
+            first: 3,
+            count: 4,
+        })
+        // Past the bottom: the lines that exist are rendered, the others refused one by one.
+        .send(MasterMessage::RenderLines {
+            job: 1,
+            first: HEIGHT - 1,
+            count: 2,
+        })
+        .send(MasterMessage::RenderLines {
+            job: 7,
+            first: 0,
+            count: 2,
+        })
+        .send(MasterMessage::Fence { seq: 5 });
+    let (result, out) = run(&script, &node(MEMORY), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Closed));
+    let mut want = vec![worker_hello(MEMORY), Out::Ready { job: 1 }];
+    want.extend((3..7).map(|y| expected_line(&f, 1, y)));
+    want.push(expected_line(&f, 1, HEIGHT - 1));
+    want.push(Out::Refused {
+        job: 1,
+        reason: Refusal::LineOutOfRange,
+    });
+    want.extend(
+        [Refusal::UnknownJob; 2]
+            .into_iter()
+            .map(|reason| Out::Refused { job: 7, reason }),
+    );
+    want.push(Out::FenceAck { seq: 5 });
+    assert_eq!(out, want);
+}
+
+#[test]
 fn version_mismatch_answers_hello_and_ends() {
     let f = room();
     let mut script = Script::default();
@@ -501,6 +600,7 @@ fn version_mismatch_answers_hello_and_ends() {
             name: "future-master",
             arch: "x86_64",
             scene_memory: 0,
+            threads: 0,
         }))
         .job(1, &f.blob)
         .send(MasterMessage::Fence { seq: 1 });

@@ -1,18 +1,20 @@
 //! TCP transport for Strahl: endpoints, connecting, and the worker side of a TCP link.
 //!
 //! The master's side of a connection is a plain [`TcpStream`] (the host wraps it into its link
-//! type); the worker's side runs [`strahl_core::worker::serve`] over the stream. Frames
-//! are small and latency-bound, so every stream has Nagle's algorithm off.
+//! type); the worker's side runs the core's worker session over the stream, rendering on the
+//! node's threads ([`threads`]). Frames are small and latency-bound, so every stream has
+//! Nagle's algorithm off.
 //!
 //! Workers either listen ([`serve_listener`]: one master at a time, then the next) or dial a
 //! master that listens ([`dial`]), which suits batch schedulers and NAT.
 #![forbid(unsafe_code)]
 
-use embedded_io_adapters::std::FromStd;
-use std::io::{self, BufReader, Read, Write};
-use std::net::{TcpListener, TcpStream, ToSocketAddrs};
+pub mod threads;
+
+use std::io::{self, BufReader};
+use std::net::{Shutdown, TcpListener, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
-use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 
 /// How long one attempt to connect may take before it counts as failed.
 pub const CONNECT_TIMEOUT: Duration = Duration::from_secs(5);
@@ -103,53 +105,30 @@ pub fn connect(endpoint: &str, timeout: Duration) -> io::Result<TcpStream> {
     Err(last)
 }
 
-/// A TCP stream with buffered reads and direct writes (each frame is written whole).
-pub struct BufferedStream {
-    reader: BufReader<TcpStream>,
-    writer: TcpStream,
-}
-
-impl BufferedStream {
-    /// Wraps `stream`.
-    ///
-    /// # Errors
-    /// If the stream cannot be duplicated or configured.
-    pub fn new(stream: TcpStream) -> io::Result<Self> {
-        stream.set_nodelay(true)?;
-        Ok(BufferedStream {
-            reader: BufReader::with_capacity(1 << 16, stream.try_clone()?),
-            writer: stream,
-        })
-    }
-}
-
-impl Read for BufferedStream {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        self.reader.read(buf)
-    }
-}
-
-impl Write for BufferedStream {
-    fn write(&mut self, buf: &[u8]) -> io::Result<usize> {
-        self.writer.write(buf)
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
-        self.writer.flush()
-    }
-}
-
-/// Serves one master over a connected stream.
+/// Serves one master over a connected stream, rendering on `node.threads` threads
+/// ([`threads::serve_threaded`]).
 ///
 /// # Errors
-/// The stream cannot be set up, or what [`serve`] reports.
+/// The stream cannot be set up, or what the session reports.
 pub fn serve_stream(
     stream: TcpStream,
     node: &NodeInfo<'_>,
     cache: &mut SceneCache,
 ) -> Result<SessionEnd, SessionError> {
-    let mut link = FromStd::new(BufferedStream::new(stream).map_err(SessionError::Setup)?);
-    serve(&mut link, node, cache).map_err(SessionError::Worker)
+    let setup = || -> io::Result<_> {
+        stream.set_nodelay(true)?;
+        Ok((
+            BufReader::with_capacity(1 << 16, stream.try_clone()?),
+            stream.try_clone()?,
+        ))
+    };
+    let (reader, writer) = setup().map_err(SessionError::Setup)?;
+    let hang_up = || {
+        // Already closed or never connected: nothing left to end.
+        let _ = stream.shutdown(Shutdown::Both);
+    };
+    threads::serve_threaded(reader, writer, &hang_up, node, cache, node.threads as usize)
+        .map_err(SessionError::Worker)
 }
 
 /// Why a TCP session ended abnormally.

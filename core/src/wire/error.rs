@@ -22,6 +22,8 @@ pub enum ProtocolError {
     DigestMismatch,
     /// A `RefineLine` mask is empty or longer than [`crate::wire::MAX_MASK_LEN`].
     BadMask,
+    /// A `RenderLines` asks for no line or more than [`crate::wire::MAX_LINES_PER_REQUEST`].
+    BadRequest,
 }
 
 impl fmt::Display for ProtocolError {
@@ -37,6 +39,7 @@ impl fmt::Display for ProtocolError {
             ProtocolError::SceneTooLarge => "the scene is empty or larger than the protocol allows",
             ProtocolError::DigestMismatch => "the scene's bytes do not match their digest",
             ProtocolError::BadMask => "a refine request's mask is empty or too long",
+            ProtocolError::BadRequest => "a request asks for no line or too many lines",
         })
     }
 }

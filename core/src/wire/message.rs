@@ -11,7 +11,8 @@ use crate::render::stats::RayCounts;
 use crate::scene::error::SceneError;
 use crate::wire::error::ProtocolError;
 use crate::wire::{
-    MAX_CHUNK_LEN, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES,
+    MAX_CHUNK_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH,
+    PIXEL_WIRE_BYTES,
 };
 use serde::{Deserialize, Serialize};
 
@@ -29,6 +30,8 @@ pub struct Hello<'a> {
     pub arch: &'a str,
     /// Bytes of memory the node can give a scene (0 from a master).
     pub scene_memory: u64,
+    /// Lines the node renders at once (a worker's threads, at least 1; 0 from a master).
+    pub threads: u32,
 }
 
 impl Hello<'_> {
@@ -92,6 +95,16 @@ pub enum MasterMessage<'a> {
         line: u32,
         /// One bit per pixel (`crate::render::adaptive::mask_len` bytes), at most [`MAX_MASK_LEN`].
         mask: &'a [u8],
+    },
+    /// Render lines `first..first + count` (1 to [`MAX_LINES_PER_REQUEST`]): the same as
+    /// `count` `RenderLine`s in a row, answered by one `LineResult` per line, in order.
+    RenderLines {
+        /// The job.
+        job: u32,
+        /// The first line.
+        first: u32,
+        /// How many lines.
+        count: u32,
     },
 }
 
@@ -194,6 +207,11 @@ impl<'a> MasterMessage<'a> {
             MasterMessage::RefineLine { mask, .. } => {
                 if mask.is_empty() || mask.len() > MAX_MASK_LEN {
                     return Err(ProtocolError::BadMask);
+                }
+            }
+            MasterMessage::RenderLines { count, .. } => {
+                if count == 0 || count > MAX_LINES_PER_REQUEST {
+                    return Err(ProtocolError::BadRequest);
                 }
             }
             MasterMessage::RenderLine { .. }

@@ -29,7 +29,7 @@ pub mod scene_blob;
 /// talk: the worker answers with its own `Hello` (so the master can report both versions) and
 /// ends the session. `Hello` stays the first variant of both message enums, with the version as
 /// its first field, in every version.
-pub const PROTOCOL_VERSION: u32 = 5;
+pub const PROTOCOL_VERSION: u32 = 6;
 
 /// The widest image line a line result carries, in pixels (the scene's own limit).
 pub const MAX_WIDTH: u32 = crate::scene::MAX_IMAGE_SIDE;
@@ -44,6 +44,9 @@ pub const MAX_CHUNK_LEN: usize = 1024;
 /// with its current offset) each time it has received a multiple of this many bytes, and a
 /// master keeps at most two windows unanswered, so slow links are never flooded.
 pub const SCENE_WINDOW: u32 = 16 * MAX_CHUNK_LEN as u32;
+
+/// The most lines one `RenderLines` request asks for.
+pub const MAX_LINES_PER_REQUEST: u32 = 64;
 
 /// The longest node name or architecture string in a `Hello`, in bytes.
 pub const MAX_NAME_LEN: usize = 64;

@@ -3,7 +3,8 @@
 //! - [`speed`]: `strahl bench` itself, the performance figures of issue 2 (octree build,
 //!   octree size, primary and shaded rays per second) on the generated large scene.
 //! - [`scaling`]: `strahl bench scaling`, speedup over 1 to N workers, measured in-process and
-//!   over TCP and extended by the discrete-event model.
+//!   over TCP and extended by the discrete-event model; [`master_load`] measures the master's
+//!   cost per result for it.
 //! - [`accuracy`]: `strahl bench accuracy`, what each quality knob buys against a converged
 //!   reference and what it costs in time; writes `docs/accuracy.md` and its plot.
 //! - [`peers`]: `strahl bench peers`, Strahl against POV-Ray 3.7 on the SPD scenes (tracing
@@ -18,6 +19,7 @@
 
 pub mod accuracy;
 mod machine;
+pub mod master_load;
 pub mod peers;
 pub mod scaling;
 pub mod speed;

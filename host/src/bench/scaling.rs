@@ -1,40 +1,49 @@
 //! `strahl bench scaling`: the seed's runtime comparison over 1 to N machines (its section
-//! 3.2.3.4), answered three ways in one run.
+//! 3.2.3.4), answered several ways in one run, on the demo room or any scene (`--scene`).
 //!
-//! - **In-process**: 1 to `cores` workers in this process (the default executor), measured.
-//! - **TCP processes**: 1 to `cores` `strahl worker` processes on loopback, measured. They keep
-//!   running between runs, so only the first run of each count transfers the scene.
+//! - **In-process**: 1 to `cores` workers in this process (the default executor), measured,
+//!   with the share of the wall time the master thread was busy (its CPU clock).
+//! - **TCP processes**: 1 to `cores` one-thread `strahl worker` processes on loopback, measured.
+//!   They keep running between runs, so only the first run of each count transfers the scene.
+//! - **One TCP process, N threads**: one `strahl worker --threads N` per count, measured.
 //! - **Model**: 1 to `--up-to` workers in the discrete-event model
-//!   ([`crate::cluster::model`]), fed with this machine's cost of every line and the master's
-//!   time per result, measured here with an image whose rays hit nothing. Where real figures exist, the model's stand
-//!   next to them, so its error is visible.
+//!   ([`crate::cluster::model`]), fed with this machine's cost of every line, the master's
+//!   CPU time per result ([`super::master_load`]: workers that answer without rendering) and
+//!   a one-way latency (`--latency-us`). Where real figures exist, the model's stand next to
+//!   them, so its error is visible.
 //!
 //! Every time is the median of `--runs` runs; speedups are against the 1-worker time of the same
 //! column in the same run.
 
+use super::master_load::{self, MasterLoad};
 use super::stats::median;
 use crate::cluster::link::Link;
-use crate::cluster::local::render_local;
+use crate::cluster::local::spawn_local_workers;
 use crate::cluster::master::{run_master, ClusterImage, MasterOptions};
 use crate::cluster::model::{simulate, ModelParams};
 use crate::cluster::prepared::PreparedScene;
 use crate::generate;
+use crate::util::sys::thread_cpu_time;
 use anyhow::{anyhow, bail, Context as _};
 use std::io::{BufRead as _, BufReader, Write};
 use std::num::NonZeroUsize;
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::{RenderSettings, Scene, SceneDesc};
+use strahl_formats::load::{load_scene, Overrides};
 
 /// What `strahl bench scaling` measures (its command line is `cli::bench::ScalingArgs`).
 #[derive(Clone, Debug)]
 pub struct ScalingOptions {
-    /// Image width of the demo room.
+    /// The scene; `None`: the demo room with reflections.
+    pub scene: Option<PathBuf>,
+    /// Image width.
     pub width: u32,
-    /// Image height of the demo room.
+    /// Image height.
     pub height: u32,
     /// Runs per figure (the median is reported).
     pub runs: u32,
@@ -46,6 +55,10 @@ pub struct ScalingOptions {
     pub window: u32,
     /// Skip the TCP worker processes (in-process and model only).
     pub no_tcp: bool,
+    /// One-way link latency in the model, in seconds.
+    pub latency: f64,
+    /// Lines per request; `None`: the master's choice.
+    pub lines_per_request: Option<u32>,
 }
 
 /// A `strahl worker` process on loopback, killed when dropped.
@@ -61,11 +74,14 @@ impl Drop for WorkerProcess {
     }
 }
 
-fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
+/// Starts `strahl worker --listen 127.0.0.1:0 --threads THREADS`.
+fn start_worker_process(index: u32, threads: u32) -> anyhow::Result<WorkerProcess> {
     let exe = std::env::current_exe().context("cannot find the strahl executable")?;
     let mut child = Command::new(exe)
-        .args(["worker", "--listen", "127.0.0.1:0", "--name"])
-        .arg(format!("bench-{index}"))
+        .args(["worker", "--listen", "127.0.0.1:0", "--threads"])
+        .arg(threads.to_string())
+        .arg("--name")
+        .arg(format!("bench-{index}-{threads}t"))
         .stdin(Stdio::null())
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
@@ -94,9 +110,9 @@ fn start_worker_process(index: u32) -> anyhow::Result<WorkerProcess> {
     Ok(w)
 }
 
-/// Worker processes 1 to `n`.
+/// One-thread worker processes 1 to `n`.
 fn start_worker_processes(n: u32) -> anyhow::Result<Vec<WorkerProcess>> {
-    (1..=n).map(start_worker_process).collect()
+    (1..=n).map(|i| start_worker_process(i, 1)).collect()
 }
 
 fn tcp_render(
@@ -120,36 +136,73 @@ fn tcp_render(
     )?)
 }
 
+/// A measured figure: medians over the runs of one configuration.
+#[derive(Clone, Copy, Debug)]
+struct Figure {
+    wall: Duration,
+    /// The share of the wall time the master thread was busy.
+    master_busy: Option<f64>,
+    /// Lines per request the master chose (the last run).
+    per_request: f64,
+}
+
 /// One row of the table.
 struct Row {
     workers: u32,
-    in_process: Option<Duration>,
-    tcp: Option<Duration>,
+    in_process: Option<Figure>,
+    tcp: Option<Figure>,
+    threads: Option<Figure>,
     model: f64,
 }
 
-fn speedup(base: Option<Duration>, t: Option<Duration>) -> String {
+fn speedup(base: Option<&Figure>, t: Option<&Figure>) -> String {
     match (base, t) {
-        (Some(b), Some(t)) if t > Duration::ZERO => {
-            format!("{:.2}", b.as_secs_f64() / t.as_secs_f64())
+        (Some(b), Some(t)) if t.wall > Duration::ZERO => {
+            format!("{:.2}", b.wall.as_secs_f64() / t.wall.as_secs_f64())
         }
         _ => "-".to_string(),
     }
 }
 
-fn secs(t: Option<Duration>) -> String {
-    t.map_or("-".to_string(), |t| format!("{:.3}", t.as_secs_f64()))
+fn secs(t: Option<&Figure>) -> String {
+    t.map_or("-".to_string(), |t| format!("{:.3}", t.wall.as_secs_f64()))
 }
 
-/// The median wall time of `runs` calls of `f`.
-fn timed(runs: usize, mut f: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<Duration> {
-    let mut times = Vec::with_capacity(runs);
+fn percent(share: Option<f64>) -> String {
+    share.map_or("-".to_string(), |s| format!("{:.1}%", 100.0 * s))
+}
+
+/// Runs `render` `runs` times on this thread (the master runs on the caller's thread) and
+/// gives the medians of the wall time and of the master thread's CPU time.
+fn timed(
+    runs: usize,
+    mut render: impl FnMut() -> anyhow::Result<ClusterImage>,
+) -> anyhow::Result<Figure> {
+    let mut walls = Vec::with_capacity(runs);
+    let mut cpus = Vec::with_capacity(runs);
+    let mut per_request = 1.0;
     for _ in 0..runs {
+        let cpu = thread_cpu_time();
         let t = Instant::now();
-        f()?;
-        times.push(t.elapsed());
+        let image = render()?;
+        walls.push(t.elapsed());
+        if let (Some(before), Some(after)) = (cpu, thread_cpu_time()) {
+            cpus.push(after.saturating_sub(before));
+        }
+        let (requests, lines) = image
+            .workers
+            .iter()
+            .fold((0, 0), |(r, l), w| (r + w.requests, l + w.requested_lines));
+        per_request = f64::from(lines) / f64::from(requests.max(1));
     }
-    Ok(median(times))
+    let wall = median(walls);
+    let master_busy =
+        (!cpus.is_empty()).then(|| median(cpus).as_secs_f64() / wall.as_secs_f64().max(1e-9));
+    Ok(Figure {
+        wall,
+        master_busy,
+        per_request,
+    })
 }
 
 /// The cost in seconds of every line on one core, the model's input (median of the runs per
@@ -167,205 +220,220 @@ fn line_costs(scene: &Scene, width: u32, height: u32, runs: usize) -> anyhow::Re
     Ok(costs.into_iter().map(|c| median(c).as_secs_f64()).collect())
 }
 
-/// The scene `desc` with one tiny triangle out of view in place of its own: a render of it is
-/// all protocol, framing and scheduling.
-fn empty_scene(desc: &SceneDesc) -> anyhow::Result<PreparedScene> {
-    let mut d = desc.clone();
-    d.points = vec![
-        glam::Vec3::new(0.0, -1e3, 0.0),
-        glam::Vec3::new(1e-3, -1e3, 0.0),
-        glam::Vec3::new(0.0, -1e3, 1e-3),
-    ];
-    // Behind the camera (at y = −100, looking along +y): every ray misses.
-    d.triangles.truncate(1);
-    if let Some(t) = d.triangles.first_mut() {
-        t.points = [0, 1, 2];
-    }
-    PreparedScene::new(&d, &OctreeParams::default()).map_err(|e| anyhow!("empty scene: {e}"))
-}
-
-/// The median time of `prepared` on 1 to `max` in-process workers.
-fn in_process_times(
-    prepared: &PreparedScene,
-    max: usize,
-    runs: usize,
-) -> anyhow::Result<Vec<Duration>> {
-    (1..=max)
-        .map(|n| {
-            timed(runs, || {
-                render_local(prepared, n, &|_, _| {})?;
-                Ok(())
-            })
-        })
-        .collect()
-}
-
-/// The median time of `prepared` on the first 1 to all of `procs`.
-fn tcp_times(
-    prepared: &PreparedScene,
-    procs: &[WorkerProcess],
-    opts: &MasterOptions,
-    runs: usize,
-) -> anyhow::Result<Vec<Duration>> {
-    (1..=procs.len())
-        .map(|n| {
-            timed(runs, || {
-                tcp_render(prepared, &procs[..n], opts)?;
-                Ok(())
-            })
-        })
-        .collect()
-}
+/// Lines of the image the master's load is measured on (nothing is traced in it).
+const ECHO_HEIGHT: u32 = 16384;
 
 /// What the table is made of, measured.
 struct Measured {
+    name: String,
     cores: u32,
     max_real: u32,
     runs: usize,
     triangles: usize,
     /// Seconds to trace every line once on one core.
     traced: f64,
-    /// The master's time per result, in seconds.
+    /// The master with workers that answer without rendering.
+    load: MasterLoad,
+    /// Echoing workers in that measurement.
+    echo_workers: u32,
+    /// The master's time per result the model uses, in seconds.
     master_time: f64,
-    /// One-way latency in the model, in seconds.
-    latency: f64,
     /// Whether the TCP worker processes ran.
     tcp_used: bool,
-    in_process: Vec<Duration>,
-    tcp: Vec<Duration>,
     rows: Vec<Row>,
 }
 
 /// Runs `strahl bench scaling` and prints the table on stdout.
 ///
 /// # Errors
-/// If a worker process cannot be started or reached, or a render fails.
+/// If the scene cannot be loaded, a worker process cannot be started or reached, or a render
+/// fails.
 pub fn run(args: &ScalingOptions) -> anyhow::Result<()> {
     let measured = measure(args)?;
     print_table(&mut std::io::stdout().lock(), args, &measured)
 }
 
-/// Measures the in-process and TCP times and runs the model.
+/// The scene at the benchmark's size, and its name.
+fn scene_desc(args: &ScalingOptions) -> anyhow::Result<(SceneDesc, String)> {
+    let Some(path) = &args.scene else {
+        let mut desc = generate::room();
+        desc.settings = RenderSettings {
+            width: args.width,
+            height: args.height,
+            reflections: true,
+            ..desc.settings
+        };
+        return Ok((desc, "demo room with reflections".to_string()));
+    };
+    let overrides = Overrides {
+        width: Some(args.width),
+        height: Some(args.height),
+        ..Overrides::default()
+    };
+    let loaded = load_scene(path, &overrides)?;
+    Ok((loaded.desc, path.display().to_string()))
+}
+
+/// Times `render(n)` for n = 1 to `max`.
+fn column(
+    max: u32,
+    runs: usize,
+    mut render: impl FnMut(usize) -> anyhow::Result<ClusterImage>,
+) -> anyhow::Result<Vec<Figure>> {
+    (1..=max as usize)
+        .map(|n| timed(runs, || render(n)))
+        .collect()
+}
+
+/// Measures the in-process and TCP times and the master's load, and runs the model.
 fn measure(args: &ScalingOptions) -> anyhow::Result<Measured> {
     let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get) as u32;
     let max_real = args.max_real.unwrap_or(cores).max(1);
     let runs = args.runs.max(1) as usize;
-    let mut desc = generate::room();
-    desc.settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        reflections: true,
-        ..desc.settings
-    };
-    let prepared = PreparedScene::new(&desc, &OctreeParams::default())
-        .map_err(|e| anyhow!("demo room: {e}"))?;
+    let (desc, name) = scene_desc(args)?;
+    let prepared =
+        PreparedScene::new(&desc, &OctreeParams::default()).map_err(|e| anyhow!("{name}: {e}"))?;
     let opts = MasterOptions {
         window: args.window,
+        lines_per_request: args.lines_per_request,
         ..MasterOptions::default()
     };
     let line_costs = line_costs(&prepared.scene, args.width, args.height, runs)?;
     let traced: f64 = line_costs.iter().sum();
 
-    let in_process = in_process_times(&prepared, max_real as usize, runs)?;
-
-    let tcp_procs = if args.no_tcp {
-        None
-    } else {
-        Some(start_worker_processes(max_real)?)
-    };
-    let tcp = match &tcp_procs {
-        Some(procs) => tcp_times(&prepared, procs, &opts, runs)?,
-        None => Vec::new(),
-    };
-
-    // The master's time per result: a render of the same image size whose rays hit nothing,
-    // over TCP where the workers run.
-    let empty = empty_scene(&desc)?;
-    let empty_time = timed(runs, || {
-        if let Some(procs) = tcp_procs.as_deref() {
-            tcp_render(&empty, &procs[..1], &opts)?;
-        } else {
-            render_local(&empty, 1, &|_, _| {})?;
-        }
-        Ok(())
+    let in_process = column(max_real, runs, |n| {
+        let links = spawn_local_workers(n, &prepared.cache())?;
+        Ok(run_master(
+            &prepared.job(),
+            links,
+            None,
+            &opts,
+            &|_, _| {},
+            &|_| {},
+        )?)
     })?;
-    let master_time = empty_time.as_secs_f64() / f64::from(args.height);
-    let latency = 50e-6;
+    let (tcp, threads) = if args.no_tcp {
+        (Vec::new(), Vec::new())
+    } else {
+        let procs = start_worker_processes(max_real)?;
+        let tcp = column(max_real, runs, |n| {
+            tcp_render(&prepared, &procs[..n], &opts)
+        })?;
+        drop(procs);
+        let threads = column(max_real, runs, |n| {
+            let one = start_worker_process(0, n as u32)?;
+            tcp_render(&prepared, std::slice::from_ref(&one), &opts)
+        })?;
+        (tcp, threads)
+    };
+
+    // The master's cost per result, with workers that answer without rendering.
+    let mut tall = desc.clone();
+    tall.settings.height = ECHO_HEIGHT;
+    let tall =
+        PreparedScene::new(&tall, &OctreeParams::default()).map_err(|e| anyhow!("{name}: {e}"))?;
+    let echo_workers = cores;
+    let load = master_load::measure(&tall, echo_workers as usize, runs, &opts)?;
+    let master_time = load
+        .seconds_per_result()
+        .unwrap_or_else(|| 1.0 / load.results_per_second());
     let model = |n: u32| {
         simulate(&ModelParams {
             line_costs: line_costs.clone(),
             speeds: vec![1.0; n as usize],
-            latency,
+            latency: args.latency,
             master_time,
             window: args.window,
         })
         .makespan
     };
     let rows: Vec<Row> = (1..=args.up_to.max(max_real))
-        .map(|n| Row {
-            workers: n,
-            in_process: in_process.get(n as usize - 1).copied(),
-            tcp: tcp.get(n as usize - 1).copied(),
-            model: model(n),
+        .map(|n| {
+            let at = |v: &[Figure]| v.get(n as usize - 1).copied();
+            Row {
+                workers: n,
+                in_process: at(&in_process),
+                tcp: at(&tcp),
+                threads: at(&threads),
+                model: model(n),
+            }
         })
         .collect();
     Ok(Measured {
+        name,
         cores,
         max_real,
         runs,
         triangles: prepared.scene.triangle_points.len(),
         traced,
+        load,
+        echo_workers,
         master_time,
-        latency,
-        tcp_used: tcp_procs.is_some(),
-        in_process,
-        tcp,
+        tcp_used: !args.no_tcp,
         rows,
     })
 }
 
+/// What was measured before the table: the scene, the tracing time, the master's load.
+fn print_header(out: &mut impl Write, args: &ScalingOptions, m: &Measured) -> anyhow::Result<()> {
+    writeln!(
+        out,
+        "strahl bench scaling: {} at {}x{}, {} triangles; {} CPUs here; window {}; median of {} \
+         runs",
+        m.name, args.width, args.height, m.triangles, m.cores, args.window, m.runs
+    )?;
+    writeln!(
+        out,
+        "tracing all lines on one core: {:.3} s ({:.0} µs a line)",
+        m.traced,
+        1e6 * m.traced / f64::from(args.height.max(1))
+    )?;
+    let l = &m.load;
+    writeln!(
+        out,
+        "master, {} in-process workers answering without rendering, {} lines: {:.0} results/s; \
+         master thread {} CPU per result = {} results/s on one core, busy {}; {:.1} lines per \
+         request",
+        m.echo_workers,
+        l.results,
+        l.results_per_second(),
+        l.seconds_per_result()
+            .map_or("-".to_string(), |s| format!("{:.2} µs", s * 1e6)),
+        l.results_per_core_second()
+            .map_or("-".to_string(), |r| format!("{r:.0}")),
+        percent(l.busy_share()),
+        l.lines_per_request
+    )?;
+    writeln!(
+        out,
+        "model: master time per result {:.2} µs (the figure above), one-way latency {:.0} µs",
+        m.master_time * 1e6,
+        args.latency * 1e6
+    )?;
+    Ok(())
+}
+
 /// The report: what was measured, then a row per worker count.
 fn print_table(out: &mut impl Write, args: &ScalingOptions, m: &Measured) -> anyhow::Result<()> {
-    let Measured {
-        cores,
-        max_real,
-        runs,
-        traced,
-        master_time,
-        latency,
-        ..
-    } = *m;
+    print_header(out, args, m)?;
     writeln!(
         out,
-        "strahl bench scaling: demo room {}x{} with reflections, {} triangles; {cores} CPUs here; \
-         window {}; median of {runs} runs",
-        args.width, args.height, m.triangles, args.window
-    )?;
-    writeln!(
-        out,
-        "tracing all lines on one core: {traced:.3} s; model: master time per result {:.1} µs \
-         (measured with an empty image{}), one-way latency {:.0} µs",
-        master_time * 1e6,
-        if m.tcp_used {
-            " over TCP"
-        } else {
-            " in-process"
-        },
-        latency * 1e6
-    )?;
-    writeln!(
-        out,
-        "{:>7} | {:>13} {:>7} | {:>13} {:>7} | {:>9} {:>7} {:>10}",
+        "{:>7} | {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} | {:>11} {:>7} | {:>9} {:>7} {:>10}",
         "workers",
-        "in-process s",
+        "in-proc s",
         "speedup",
-        "TCP procs s",
+        "master",
+        "l/req",
+        "TCP s",
+        "speedup",
+        "1 proc N t",
         "speedup",
         "model s",
         "speedup",
         "efficiency"
     )?;
     let base_model = m.rows.first().map_or(0.0, |r| r.model);
+    let first = m.rows.first();
     for r in &m.rows {
         let model_speedup = if r.model > 0.0 {
             base_model / r.model
@@ -374,23 +442,31 @@ fn print_table(out: &mut impl Write, args: &ScalingOptions, m: &Measured) -> any
         };
         writeln!(
             out,
-            "{:>7} | {:>13} {:>7} | {:>13} {:>7} | {:>9.3} {:>7.2} {:>9.0}%",
+            "{:>7} | {:>9} {:>7} {:>7} {:>7} | {:>9} {:>7} | {:>11} {:>7} | {:>9.3} {:>7.2} {:>9.0}%",
             r.workers,
-            secs(r.in_process),
-            speedup(m.in_process.first().copied(), r.in_process),
-            secs(r.tcp),
-            speedup(m.tcp.first().copied(), r.tcp),
+            secs(r.in_process.as_ref()),
+            speedup(first.and_then(|f| f.in_process.as_ref()), r.in_process.as_ref()),
+            percent(r.in_process.and_then(|f| f.master_busy)),
+            r.in_process
+                .map_or("-".to_string(), |f| format!("{:.1}", f.per_request)),
+            secs(r.tcp.as_ref()),
+            speedup(first.and_then(|f| f.tcp.as_ref()), r.tcp.as_ref()),
+            secs(r.threads.as_ref()),
+            speedup(first.and_then(|f| f.threads.as_ref()), r.threads.as_ref()),
             r.model,
             model_speedup,
             100.0 * model_speedup / f64::from(r.workers),
         )?;
     }
-    if max_real > cores {
+    if m.max_real > m.cores {
         writeln!(
             out,
-            "note: {max_real} real workers on {cores} CPUs share cores; their speedup cannot \
-             exceed {cores}"
+            "note: {} real workers on {} CPUs share cores; their speedup cannot exceed {}",
+            m.max_real, m.cores, m.cores
         )?;
+    }
+    if !m.tcp_used {
+        writeln!(out, "note: --no-tcp: no TCP worker processes were measured")?;
     }
     Ok(())
 }

@@ -15,6 +15,7 @@ use std::path::PathBuf;
 use strahl_core::accel::octree::{OctreeParams, MAX_DEPTH_LIMIT};
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::MAX_IMAGE_SIDE;
+use strahl_core::wire::MAX_LINES_PER_REQUEST;
 
 /// Arguments of `strahl bench`.
 #[derive(Debug, clap::Args)]
@@ -65,11 +66,15 @@ pub enum BenchCommand {
 /// Arguments of `strahl bench scaling`.
 #[derive(Debug, clap::Args)]
 pub struct ScalingArgs {
-    /// Image width of the demo room.
+    /// The scene to render (any format `strahl render` reads) [default: the demo room with
+    /// reflections].
+    #[arg(long, value_name = "PATH")]
+    pub scene: Option<PathBuf>,
+    /// Image width.
     #[arg(long, value_name = "PIXELS", default_value_t = 640,
           value_parser = clap::value_parser!(u32).range(16..=4096))]
     pub width: u32,
-    /// Image height of the demo room.
+    /// Image height.
     #[arg(long, value_name = "PIXELS", default_value_t = 480,
           value_parser = clap::value_parser!(u32).range(16..=4096))]
     pub height: u32,
@@ -91,6 +96,14 @@ pub struct ScalingArgs {
     /// Skip the TCP worker processes (in-process and model only).
     #[arg(long)]
     pub no_tcp: bool,
+    /// Lines per request [default: chosen by the master from the measured cost of a line].
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_LINES_PER_REQUEST)))]
+    pub lines_per_request: Option<u32>,
+    /// One-way link latency in the model, in microseconds (100: a switched LAN).
+    #[arg(long, value_name = "MICROSECONDS", default_value_t = 100,
+          value_parser = clap::value_parser!(u32).range(0..=1_000_000))]
+    pub latency_us: u32,
 }
 
 /// Arguments of `strahl bench accuracy`.
@@ -164,6 +177,7 @@ impl ScalingArgs {
     /// The options of the scaling benchmark.
     pub fn options(&self) -> ScalingOptions {
         ScalingOptions {
+            scene: self.scene.clone(),
             width: self.width,
             height: self.height,
             runs: self.runs,
@@ -171,6 +185,8 @@ impl ScalingArgs {
             up_to: self.up_to,
             window: self.window,
             no_tcp: self.no_tcp,
+            latency: f64::from(self.latency_us) * 1e-6,
+            lines_per_request: self.lines_per_request,
         }
     }
 }

@@ -28,6 +28,7 @@ use strahl_core::accel::octree::OctreeParams;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
+use strahl_core::wire::MAX_LINES_PER_REQUEST;
 
 /// The most worker threads `--workers` accepts.
 pub const MAX_WORKERS: u32 = 1024;
@@ -234,10 +235,16 @@ pub struct ClusterArgs {
     #[arg(long = "serial", value_name = "PATH[:BAUD]")]
     pub serial: Vec<String>,
 
-    /// Line requests each worker has outstanding; 1 is the seed's one line at a time.
+    /// Line requests each worker thread has outstanding; 1 is the seed's one line at a time.
     #[arg(long, value_name = "N", default_value_t = WINDOW,
           value_parser = clap::value_parser!(u32).range(1..=64))]
     pub window: u32,
+
+    /// Lines per request [default: chosen from the measured cost of a line, so that a request
+    /// carries about 2 ms of one thread's work]; 1 is the seed's one line at a time.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_LINES_PER_REQUEST)))]
+    pub lines_per_request: Option<u32>,
 
     /// Seconds a worker with work may stay silent before it counts as hung and its lines go to
     /// others; also how long a listening master waits with no worker.
@@ -309,6 +316,7 @@ impl RenderArgs {
         let timeout = Duration::from_secs_f64(self.cluster.worker_timeout);
         MasterOptions {
             window: self.cluster.window,
+            lines_per_request: self.cluster.lines_per_request,
             probe_interval: (timeout / 4).min(PROBE_INTERVAL),
             worker_timeout: timeout,
             wait_for_workers: timeout,

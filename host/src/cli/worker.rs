@@ -50,6 +50,11 @@ pub struct WorkerArgs {
     #[arg(long, value_name = "MIB", value_parser = clap::value_parser!(u64).range(1..))]
     pub memory: Option<u64>,
 
+    /// Render threads of a TCP worker (`--listen`, `--connect`) [default: every CPU of the
+    /// node]. A serial worker renders on one: its link, not its CPU, is what limits it.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_THREADS))]
+    pub threads: Option<u32>,
+
     /// Stop after serving N sessions (listening and serial workers) [default: never].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub sessions: Option<u32>,
@@ -58,6 +63,9 @@ pub struct WorkerArgs {
     #[arg(long, value_name = "SECS", default_value_t = 30)]
     pub patience: u64,
 }
+
+/// The most render threads a worker takes (`--threads`).
+const MAX_THREADS: i64 = 1024;
 
 /// Memory the system reports available (`MemAvailable` in `/proc/meminfo`), if it does.
 fn available_memory() -> Option<u64> {
@@ -102,10 +110,16 @@ pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
         .map(|mib| mib.saturating_mul(1 << 20))
         .or_else(available_memory)
         .unwrap_or(u64::MAX);
+    let threads = match (&args.serial, args.threads) {
+        (Some(_), _) => 1,
+        (None, Some(n)) => n,
+        (None, None) => std::thread::available_parallelism().map_or(1, |n| n.get() as u32),
+    };
     let node = NodeInfo {
         name: &name,
         arch: std::env::consts::ARCH,
         scene_memory: memory,
+        threads,
     };
     let mut cache = SceneCache::new();
     if let Some(listen) = &args.listen {
@@ -114,7 +128,7 @@ pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
         let listener =
             TcpListener::bind(&endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
         let addr = listener.local_addr()?;
-        eprintln!("strahl worker {name}: listening on {addr}");
+        eprintln!("strahl worker {name} ({threads} threads): listening on {addr}");
         strahl_tcp::serve_listener(
             &listener,
             &node,

@@ -11,8 +11,11 @@ use strahl_core::wire::scene_blob::SceneBlob;
 /// How the master schedules and when it gives up on a worker.
 #[derive(Clone, Debug)]
 pub struct MasterOptions {
-    /// Requests each worker has outstanding (1 is the seed's one line at a time).
+    /// Requests each worker thread has outstanding (1 is the seed's one line at a time).
     pub window: u32,
+    /// Lines per request: `None` chooses from the measured cost of a line
+    /// ([`crate::cluster::session::REQUEST_WORK`]); 1 is the seed's one line at a time.
+    pub lines_per_request: Option<u32>,
     /// Silence after which the master probes a worker (resends `Hello` or `Job`, or sends a
     /// `Fence`).
     pub probe_interval: Duration,
@@ -38,6 +41,7 @@ impl Default for MasterOptions {
     fn default() -> Self {
         MasterOptions {
             window: WINDOW,
+            lines_per_request: None,
             probe_interval: PROBE_INTERVAL,
             worker_timeout: WORKER_TIMEOUT,
             wait_for_workers: WORKER_TIMEOUT,

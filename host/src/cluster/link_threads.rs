@@ -26,11 +26,13 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
             version,
             name,
             arch,
+            threads,
             ..
         }) => Incoming::Hello {
             version,
             name: name.to_string(),
             arch: arch.to_string(),
+            threads,
         },
         WorkerMessage::NeedScene {
             job,

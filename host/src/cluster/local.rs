@@ -11,7 +11,7 @@ use crate::cluster::pipe::{duplex, LinkModel, PipeEnd};
 use crate::cluster::prepared::PreparedScene;
 use embedded_io_adapters::std::FromStd;
 use strahl_core::render::stats::RayCounts;
-use strahl_core::worker::{serve, NodeInfo, SceneCache};
+use strahl_core::worker::{serve_with, Inline, NodeInfo, Outbox, SceneCache};
 
 /// The memory an in-process worker offers a scene: all there is (it shares the master's).
 pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
@@ -23,29 +23,54 @@ pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
 /// # Errors
 /// If a thread cannot be started.
 pub fn spawn_local_workers(count: usize, cache: &SceneCache) -> std::io::Result<Vec<Link>> {
+    spawn_pipe_workers(count, cache, "local", Inline::new)
+}
+
+/// Starts `count` worker threads named `NAME-1`, `NAME-2`, ... that answer through the outbox
+/// `outbox()` makes: [`Inline`] renders (the local workers), others answer without rendering
+/// (the master's load in `strahl bench scaling`).
+///
+/// # Errors
+/// If a thread cannot be started.
+pub fn spawn_pipe_workers<O>(
+    count: usize,
+    cache: &SceneCache,
+    name: &str,
+    outbox: fn() -> O,
+) -> std::io::Result<Vec<Link>>
+where
+    O: Outbox<FromStd<PipeEnd>> + 'static,
+{
     (1..=count)
         .map(|i| {
             let (master_end, worker_end) = duplex(LinkModel::default(), LinkModel::default());
             let cache = cache.clone();
+            let name = format!("{name}-{i}");
+            let link = Link::from_pipe(name.clone(), master_end);
             std::thread::Builder::new()
-                .name(format!("strahl-local-{i}"))
-                .spawn(move || run_local_worker(i, worker_end, cache))?;
-            Ok(Link::from_pipe(format!("local-{i}"), master_end))
+                .name(format!("strahl-{name}"))
+                .spawn(move || run_pipe_worker(&name, worker_end, cache, outbox()))?;
+            Ok(link)
         })
         .collect()
 }
 
 /// One in-process worker: serves one session, then ends.
-fn run_local_worker(index: usize, end: PipeEnd, mut cache: SceneCache) {
-    let name = format!("local-{index}");
+fn run_pipe_worker<O: Outbox<FromStd<PipeEnd>>>(
+    name: &str,
+    end: PipeEnd,
+    mut cache: SceneCache,
+    mut outbox: O,
+) {
     let node = NodeInfo {
-        name: &name,
+        name,
         arch: std::env::consts::ARCH,
         scene_memory: LOCAL_SCENE_MEMORY,
+        threads: 1,
     };
     let mut link = FromStd::new(end);
     // However the session ends, the master sees it on the link; nothing to report here.
-    let _ = serve(&mut link, &node, &mut cache);
+    let _ = serve_with(&mut link, &mut outbox, &node, &mut cache);
 }
 
 /// Renders `prepared` with `workers` in-process workers (at least 1) through the master, and

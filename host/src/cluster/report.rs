@@ -20,6 +20,12 @@ pub struct WorkerReport {
     pub kind: LinkKind,
     /// Its architecture, as it said.
     pub arch: String,
+    /// Lines it renders at once, as it said (1 until it says).
+    pub threads: u32,
+    /// Line requests sent to it (a multi-line request counts once).
+    pub requests: u32,
+    /// Lines asked for in those requests.
+    pub requested_lines: u32,
     /// Lines whose result from this worker was the first and was used.
     pub lines: u32,
     /// Results that arrived after another worker's (copies that lost the race).
@@ -45,6 +51,9 @@ impl WorkerReport {
             address: address.to_string(),
             kind,
             arch: String::new(),
+            threads: 1,
+            requests: 0,
+            requested_lines: 0,
             lines: 0,
             duplicates: 0,
             rays: RayCounts::default(),
@@ -56,6 +65,13 @@ impl WorkerReport {
     }
 }
 
+impl WorkerReport {
+    /// Lines per request sent to it, on average; `None` if it got none.
+    pub fn lines_per_request(&self) -> Option<f64> {
+        (self.requests > 0).then(|| f64::from(self.requested_lines) / f64::from(self.requests))
+    }
+}
+
 /// The per-worker table printed after a render.
 pub struct WorkerTable<'a>(pub &'a [WorkerReport]);
 
@@ -63,21 +79,37 @@ impl fmt::Display for WorkerTable<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(
             f,
-            "{:<24} {:<7} {:>6} {:>5} {:>12} {:>8} {:>15} {:>8} {:>7}  status",
-            "worker", "link", "lines", "dup", "rays", "busy s", "rate", "reissued", "dropped"
+            "{:<24} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8} {:>15} {:>15} {:>8} {:>7}  status",
+            "worker",
+            "link",
+            "thr",
+            "lines",
+            "dup",
+            "lines/req",
+            "rays",
+            "busy s",
+            "rate",
+            "rate/thread",
+            "reissued",
+            "dropped"
         )?;
         for w in self.0 {
             let secs = w.busy.as_secs_f64();
+            let thread_secs = secs * f64::from(w.threads.max(1));
             writeln!(
                 f,
-                "{:<24} {:<7} {:>6} {:>5} {:>12} {:>8.2} {:>15} {:>8} {:>7}  {}",
+                "{:<24} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8.2} {:>15} {:>15} {:>8} {:>7}  {}",
                 truncate(&w.name, 24),
                 w.kind.to_string(),
+                w.threads,
                 w.lines,
                 w.duplicates,
+                w.lines_per_request()
+                    .map_or("-".to_string(), |r| format!("{r:.1}")),
                 w.rays.total(),
                 secs,
                 format_ray_rate(w.rays.total(), secs),
+                format_ray_rate(w.rays.total(), thread_secs),
                 w.reissued,
                 w.frames_dropped,
                 w.lost.as_deref().unwrap_or("ok"),

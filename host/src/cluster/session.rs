@@ -19,11 +19,11 @@ use crate::cluster::report::WorkerReport;
 use crate::cluster::schedule::{LineScheduler, Task};
 use std::collections::VecDeque;
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::message::{Hello, MasterMessage, Refusal};
-use strahl_core::wire::{PROTOCOL_VERSION, SCENE_WINDOW};
+use strahl_core::wire::{MAX_LINES_PER_REQUEST, PROTOCOL_VERSION, SCENE_WINDOW};
 
 /// Where the session sends its messages to workers.
 pub(crate) trait Wire {
@@ -46,6 +46,7 @@ pub(crate) enum Incoming {
         version: u32,
         name: String,
         arch: String,
+        threads: u32,
     },
     NeedScene {
         job: u32,
@@ -149,6 +150,36 @@ struct Peer {
 /// allows in flight, plus frame overhead.
 const SCENE_QUEUE_LIMIT: usize = 2 * SCENE_WINDOW as usize + 4096;
 
+/// One thread's work a multi-line request should carry: enough that the cost of a request
+/// (a frame each way through the link threads and the session) is small beside it.
+pub const REQUEST_WORK: Duration = Duration::from_millis(2);
+
+/// Results needed before the cost of a line counts as measured.
+const COST_SAMPLES: u32 = 8;
+
+/// The most lines one worker holds at once, whatever its threads.
+const MAX_OUTSTANDING: u32 = 4096;
+
+/// `tasks` cut into requests: runs of up to `per_request` consecutive first passes; a second
+/// pass (it has a mask) is a request of its own.
+fn runs(tasks: &[Task], per_request: u32) -> Vec<&[Task]> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    for i in 1..=tasks.len() {
+        let joins = match (tasks.get(i - 1), tasks.get(i)) {
+            (Some(Task::Line(a)), Some(Task::Line(b))) => {
+                *b == a + 1 && (i - start) < per_request as usize
+            }
+            _ => false,
+        };
+        if !joins {
+            out.push(&tasks[start..i]);
+            start = i;
+        }
+    }
+    out
+}
+
 /// The master's session with every worker of one render.
 pub(crate) struct Session<'a> {
     job: &'a ClusterJob,
@@ -241,6 +272,7 @@ impl<'a> Session<'a> {
             name: &self.opts.name,
             arch: std::env::consts::ARCH,
             scene_memory: 0,
+            threads: 0,
         });
         wire.send(id, &msg);
     }
@@ -333,7 +365,8 @@ impl<'a> Session<'a> {
                 version,
                 name,
                 arch,
-            } => self.on_hello(id, version, name, arch, now, wire),
+                threads,
+            } => self.on_hello(id, version, (name, arch, threads), now, wire),
             Incoming::NeedScene {
                 job: j,
                 offset,
@@ -379,12 +412,12 @@ impl<'a> Session<'a> {
         }
     }
 
+    /// A worker's `Hello`, with its name, architecture and threads.
     fn on_hello(
         &mut self,
         id: usize,
         version: u32,
-        name: String,
-        arch: String,
+        (name, arch, threads): (String, String, u32),
         now: Instant,
         wire: &mut dyn Wire,
     ) {
@@ -405,6 +438,7 @@ impl<'a> Session<'a> {
         peer.last_progress = now;
         peer.report.name = name;
         peer.report.arch = arch;
+        peer.report.threads = threads.max(1);
         peer.state = State::Loading;
         self.send_job(id, wire);
     }
@@ -506,9 +540,10 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Gives `tasks` of worker `id` back to the scheduler.
+    /// Gives `tasks` of worker `id` back to the scheduler: those no one else holds go to the
+    /// front of the queue in their order (the last is put in front first).
     fn release(&mut self, id: usize, tasks: &[Task]) {
-        for &task in tasks {
+        for &task in tasks.iter().rev() {
             if self.sched.release(task.index(self.job.height)) {
                 self.peers[id].report.reissued += 1;
             }
@@ -578,8 +613,11 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Sends loading workers more scene and fills working workers' windows.
+    /// Sends loading workers more scene and fills working workers' windows: each may hold
+    /// `window × threads` requests of [`Session::lines_per_request`] lines, and gets whole
+    /// requests only.
     pub(crate) fn fill_windows(&mut self, now: Instant, wire: &mut dyn Wire) {
+        let per_request = self.lines_per_request();
         for id in 0..self.peers.len() {
             if self.peers[id].state == State::Loading {
                 self.pump_scene(id, wire);
@@ -588,14 +626,45 @@ impl<'a> Session<'a> {
                 continue;
             }
             let outstanding = self.peers[id].requests.len();
-            for index in self.sched.fill_window(outstanding, self.opts.window) {
-                let task = Task::from_index(index, self.job.height);
-                self.request(id, task, now, wire);
+            let limit = (self.opts.window.max(1) * self.peers[id].report.threads * per_request)
+                .min(MAX_OUTSTANDING) as usize;
+            let room = limit.saturating_sub(outstanding) / per_request as usize;
+            if room == 0 {
+                continue;
+            }
+            let window = (outstanding + room * per_request as usize) as u32;
+            let tasks: Vec<Task> = self
+                .sched
+                .fill_window(outstanding, window)
+                .into_iter()
+                .map(|index| Task::from_index(index, self.job.height))
+                .collect();
+            for run in runs(&tasks, per_request) {
+                self.request(id, run, now, wire);
             }
         }
     }
 
-    fn request(&mut self, id: usize, task: Task, now: Instant, wire: &mut dyn Wire) {
+    /// Lines per request: the option, or as many as make [`REQUEST_WORK`] of one thread's
+    /// work at the cost of a line measured so far (1 until [`COST_SAMPLES`] results are in).
+    fn lines_per_request(&self) -> u32 {
+        if let Some(n) = self.opts.lines_per_request {
+            return n.clamp(1, MAX_LINES_PER_REQUEST);
+        }
+        let (mut work, mut results) = (0.0, 0u32);
+        for p in &self.peers {
+            work += p.report.busy.as_secs_f64() * f64::from(p.report.threads);
+            results += p.report.lines + p.report.duplicates;
+        }
+        if results < COST_SAMPLES || work <= 0.0 {
+            return 1;
+        }
+        let cost = work / f64::from(results);
+        ((REQUEST_WORK.as_secs_f64() / cost).ceil() as u32).clamp(1, MAX_LINES_PER_REQUEST)
+    }
+
+    /// Sends one request for `tasks` (consecutive first passes, or one task) to worker `id`.
+    fn request(&mut self, id: usize, tasks: &[Task], now: Instant, wire: &mut dyn Wire) {
         let peer = &mut self.peers[id];
         let seq = peer.next_seq;
         peer.next_seq += 1;
@@ -604,15 +673,17 @@ impl<'a> Session<'a> {
             peer.last_progress = now;
             peer.idle = false;
         }
-        peer.requests.push_back(Request {
+        peer.report.requests += 1;
+        peer.report.requested_lines += tasks.len() as u32;
+        peer.requests.extend(tasks.iter().map(|&task| Request {
             task,
             seq,
             sent: now,
-        });
+        }));
         let job = self.job.id;
-        match task {
-            Task::Line(line) => wire.send(id, &MasterMessage::RenderLine { job, line }),
-            Task::Refine(line) => {
+        match *tasks {
+            [Task::Line(line)] => wire.send(id, &MasterMessage::RenderLine { job, line }),
+            [Task::Refine(line)] => {
                 let mask = self.image.refine_mask(line);
                 wire.send(
                     id,
@@ -623,6 +694,15 @@ impl<'a> Session<'a> {
                     },
                 );
             }
+            [Task::Line(first), ..] => wire.send(
+                id,
+                &MasterMessage::RenderLines {
+                    job,
+                    first,
+                    count: tasks.len() as u32,
+                },
+            ),
+            _ => debug_assert!(false, "a request of {tasks:?}"),
         }
     }
 
@@ -699,6 +779,9 @@ mod tests {
                 MasterMessage::Job { .. } => "Job".to_string(),
                 MasterMessage::SceneChunk { offset, .. } => format!("SceneChunk {offset}"),
                 MasterMessage::RenderLine { line, .. } => format!("RenderLine {line}"),
+                MasterMessage::RenderLines { first, count, .. } => {
+                    format!("RenderLines {first}+{count}")
+                }
                 MasterMessage::RefineLine { line, mask, .. } => {
                     format!("RefineLine {line} {mask:?}")
                 }
@@ -736,8 +819,13 @@ mod tests {
     }
 
     fn line(job: &ClusterJob, y: u32, refined: bool, value: u16) -> Event {
+        line_from(0, job, y, refined, value)
+    }
+
+    /// Worker `id`'s result for line `y`, every pixel `value`.
+    fn line_from(id: usize, job: &ClusterJob, y: u32, refined: bool, value: u16) -> Event {
         Event::Message(
-            0,
+            id,
             Incoming::Line {
                 job: job.id,
                 line: y,
@@ -753,20 +841,66 @@ mod tests {
 
     /// Greets worker 0, loads it and makes it ready.
     fn ready_worker(s: &mut Session<'_>, job: &ClusterJob, wire: &mut Recorder) {
-        s.add("w0", LinkKind::InProcess, true, wire);
+        ready_worker_n(s, job, wire, 0);
+    }
+
+    /// Adds worker `id` (the next one), greets it, loads it and makes it ready.
+    fn ready_worker_n(s: &mut Session<'_>, job: &ClusterJob, wire: &mut Recorder, id: usize) {
+        s.add(&format!("w{id}"), LinkKind::InProcess, true, wire);
         let hello = Incoming::Hello {
             version: PROTOCOL_VERSION,
-            name: "zero".to_string(),
+            name: ["zero", "one"][id].to_string(),
             arch: "test".to_string(),
+            threads: 1,
         };
-        s.handle(Event::Message(0, hello), wire);
+        s.handle(Event::Message(id, hello), wire);
         let need = Incoming::NeedScene {
             job: job.id,
             offset: 0,
             restart: false,
         };
-        s.handle(Event::Message(0, need), wire);
-        s.handle(Event::Message(0, Incoming::Ready { job: job.id }), wire);
+        s.handle(Event::Message(id, need), wire);
+        s.handle(Event::Message(id, Incoming::Ready { job: job.id }), wire);
+    }
+
+    #[test]
+    fn a_lost_multi_line_request_is_reissued_line_by_line() {
+        let job = job(2, 5, None);
+        let opts = MasterOptions {
+            window: 1,
+            lines_per_request: Some(3),
+            ..MasterOptions::default()
+        };
+        let done = Mutex::new(Vec::new());
+        let on_line = |y, _| done.lock().expect("not poisoned").push(y);
+        let mut s = Session::new(&job, &opts, &on_line, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        wire.take();
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(wire.take(), [(0, "RenderLines 0+3".into())]);
+        // Line 0 arrives, then the worker is gone with lines 1 and 2 of its request.
+        s.handle(line(&job, 0, false, 5), &mut wire);
+        s.handle(Event::Closed(0, "killed".into()), &mut wire);
+        ready_worker_n(&mut s, &job, &mut wire, 1);
+        wire.take();
+        s.fill_windows(Instant::now(), &mut wire);
+        // Only the lost lines go out again (in front of the waiting ones), in whole requests.
+        assert_eq!(wire.take(), [(1, "RenderLines 1+3".into())]);
+        for y in 1..4 {
+            s.handle(line_from(1, &job, y, false, 5), &mut wire);
+        }
+        s.fill_windows(Instant::now(), &mut wire);
+        assert_eq!(wire.take(), [(1, "RenderLine 4".into())]);
+        s.handle(line_from(1, &job, 4, false, 5), &mut wire);
+        assert!(s.is_complete());
+        // Every line was used once.
+        assert_eq!(*done.lock().expect("not poisoned"), [0, 1, 2, 3, 4]);
+        let image = s.into_image().expect("complete");
+        let (zero, one) = (&image.workers[0], &image.workers[1]);
+        assert_eq!((zero.lines, zero.reissued, zero.requests), (1, 2, 1));
+        assert_eq!((one.lines, one.duplicates, one.requests), (4, 0, 2));
+        assert_eq!(one.lines_per_request(), Some(2.0));
     }
 
     #[test]

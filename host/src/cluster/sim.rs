@@ -131,6 +131,7 @@ pub fn spawn_sim_worker(
                 name: &name,
                 arch: "simulated",
                 scene_memory: u64::MAX,
+                threads: 1,
             };
             let mut link = FaultyLink {
                 inner: FromStd::new(worker_end),

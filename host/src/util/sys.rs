@@ -3,7 +3,8 @@
 //! [`host_name`] names this machine to its peers: a master puts it in its session header and in
 //! the address it gives launched workers, a worker gives it to its masters. Both sides take it
 //! from here, so neither the command line nor the cluster depends on the other for it.
-//! [`peak_memory_bytes`] is the process's largest resident set so far, for a render's summary.
+//! [`peak_memory_bytes`] is the process's largest resident set so far, for a render's summary;
+//! [`thread_cpu_time`] a thread's CPU time, for the master's share in `strahl bench scaling`.
 
 use std::time::Duration;
 use strahl_core::wire::MAX_NAME_LEN;
@@ -45,4 +46,11 @@ pub fn peak_memory_bytes() -> Option<u64> {
     // Linux and the BSDs count kibibytes, macOS bytes.
     let unit = if cfg!(target_os = "macos") { 1 } else { 1024 };
     Some(max_rss * unit).filter(|&b| b > 0)
+}
+
+/// CPU time the calling thread has used so far (`CLOCK_THREAD_CPUTIME_ID`, through nix);
+/// `None` where the system does not say.
+pub fn thread_cpu_time() -> Option<Duration> {
+    let t = nix::time::clock_gettime(nix::time::ClockId::CLOCK_THREAD_CPUTIME_ID).ok()?;
+    Some(Duration::from(t))
 }

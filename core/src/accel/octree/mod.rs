@@ -55,7 +55,7 @@ impl Default for OctreeParams {
 /// leaves.
 const INTERIOR: u32 = 1 << 31;
 
-/// One octree cell: an interior node (children at `first .. first + 8`, `count` is [`INTERIOR`]
+/// One octree cell: an interior node (children at `first .. first + 8`, `count` is `INTERIOR`
 /// with bit `c` set if child `c` holds anything) or a leaf (primitive indices at
 /// `first .. first + count` of [`Octree::indices`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
