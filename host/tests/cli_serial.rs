@@ -201,7 +201,7 @@ fn assert_row(err: &str, name: &str, link: &str) -> u32 {
     let row = table_row(err, name).unwrap_or_else(|| panic!("no row for {name}:\n{err}"));
     assert_eq!(row.get(1).map(String::as_str), Some(link), "{err}");
     assert_eq!(row.last().map(String::as_str), Some("ok"), "{err}");
-    row.get(2)
+    row.get(3)
         .and_then(|l| l.parse().ok())
         .unwrap_or_else(|| panic!("no line count for {name}:\n{err}"))
 }
