@@ -5,7 +5,8 @@
 //!   with the share of the wall time the master thread was busy (its CPU clock).
 //! - **TCP processes**: 1 to `cores` one-thread `strahl worker` processes on loopback, measured.
 //!   They keep running between runs, so only the first run of each count transfers the scene.
-//! - **One TCP process, N threads**: one `strahl worker --threads N` per count, measured.
+//! - **One TCP process, N threads**: one `strahl worker --threads N` per count, measured the
+//!   same way.
 //! - **Model**: 1 to `--up-to` workers in the discrete-event model
 //!   ([`crate::cluster::model`]), fed with this machine's cost of every line, the master's
 //!   CPU time per result ([`super::master_load`]: workers that answer without rendering) and
@@ -320,9 +321,13 @@ fn measure(args: &ScalingOptions) -> anyhow::Result<Measured> {
             tcp_render(&prepared, &procs[..n], &opts)
         })?;
         drop(procs);
+        // One process per thread count, started before the runs (its first run brings it the
+        // scene, as in the column before).
+        let multi: Vec<WorkerProcess> = (1..=max_real)
+            .map(|n| start_worker_process(0, n))
+            .collect::<anyhow::Result<_>>()?;
         let threads = column(max_real, runs, |n| {
-            let one = start_worker_process(0, n as u32)?;
-            tcp_render(&prepared, std::slice::from_ref(&one), &opts)
+            tcp_render(&prepared, std::slice::from_ref(&multi[n - 1]), &opts)
         })?;
         (tcp, threads)
     };
