@@ -24,17 +24,20 @@ use crate::render::error::RenderError;
 use crate::render::pixel::Pixel;
 use crate::render::render_line;
 use crate::scene::Scene;
+use crate::wire::auth::{self, Nonce, Role};
 use crate::wire::error::ProtocolError;
 use crate::wire::frame::{FrameReader, FrameWriteError, FrameWriter, LinkError, ReadEvent};
-use crate::wire::message::{encode_pixels, Digest, Hello, MasterMessage, Refusal, WorkerMessage};
+use crate::wire::message::{
+    encode_pixels, Digest, Hello, MasterMessage, Refusal, Rejection, WorkerMessage,
+};
 use crate::wire::scene_blob::{decode_bundle, memory_estimate, ChunkOutcome, SceneAssembler};
 use crate::wire::{MAX_MASTER_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW};
 use alloc::sync::Arc;
 use alloc::vec::Vec;
 use embedded_io::{Read, Write};
 
-/// What a worker tells the master about itself.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What a worker tells the master about itself, and the secret it requires of masters.
+#[derive(Clone, Copy, Debug)]
 pub struct NodeInfo<'a> {
     /// The node's name, at most [`crate::wire::MAX_NAME_LEN`] bytes.
     pub name: &'a str,
@@ -44,6 +47,11 @@ pub struct NodeInfo<'a> {
     pub scene_memory: u64,
     /// Lines it renders at once (its render threads; 0 counts as 1).
     pub threads: u32,
+    /// The shared secret a master must prove it holds ([`crate::wire::auth`]); `None`: any
+    /// master may use this worker.
+    pub secret: Option<&'a [u8]>,
+    /// A fresh random nonce for each handshake (the host's random source, a board's RNG).
+    pub nonce: fn() -> Nonce,
 }
 
 /// The last scene a worker prepared, kept across jobs and sessions.
@@ -101,6 +109,11 @@ pub enum WorkerError {
     },
     /// A message could not be encoded (an internal error).
     Encode(ProtocolError),
+    /// The worker has a secret and the master did not prove it holds it; the worker answered
+    /// `Refused{Unauthenticated}` and ended the session.
+    Unauthenticated,
+    /// The master rejected this worker.
+    Rejected(Rejection),
 }
 
 impl From<FrameWriteError> for WorkerError {
@@ -245,10 +258,22 @@ enum Stage {
     Refused(Refusal),
 }
 
+/// Where a session stands with the shared secret.
+#[derive(Clone, Copy, Debug)]
+enum Trust {
+    /// The worker has no secret: any master may use it.
+    Open,
+    /// The worker has a secret; the master's `Auth` for these nonces is awaited.
+    Awaiting { master: Nonce, worker: Nonce },
+    /// The master proved it holds the secret.
+    Proven,
+}
+
 /// One session's state; its answers go through an [`Outbox`].
 struct Session<'n> {
     node: &'n NodeInfo<'n>,
     greeted: bool,
+    trust: Trust,
     job: Option<Job>,
     dropped: u32,
 }
@@ -287,6 +312,7 @@ pub fn serve_with<L: Read, O: Outbox<L>>(
     let mut session = Session {
         node,
         greeted: false,
+        trust: Trust::Open,
         job: None,
         dropped: 0,
     };
@@ -346,22 +372,45 @@ impl Session<'_> {
         match msg {
             MasterMessage::Hello(h) => {
                 let node = self.node;
+                let nonce = (node.nonce)();
                 io.send(&WorkerMessage::Hello(Hello {
                     version: PROTOCOL_VERSION,
                     name: node.name,
                     arch: node.arch,
                     scene_memory: node.scene_memory,
                     threads: node.threads.max(1),
+                    nonce,
+                    proof: node
+                        .secret
+                        .map(|k| auth::prove(k, Role::Worker, &h.nonce, &nonce)),
                 }))?;
                 if h.version != PROTOCOL_VERSION {
                     return Err(WorkerError::VersionMismatch { master: h.version });
                 }
                 self.greeted = true;
+                self.trust = match node.secret {
+                    Some(_) => Trust::Awaiting {
+                        master: h.nonce,
+                        worker: nonce,
+                    },
+                    None => Trust::Open,
+                };
                 self.job = None;
                 self.dropped = 0;
             }
             // Nothing but a Hello opens a session.
             _ if !self.greeted => {}
+            MasterMessage::Reject { reason } => return Err(WorkerError::Rejected(reason)),
+            MasterMessage::EndSession => return Ok(Some(SessionEnd::Ended)),
+            MasterMessage::Auth { proof } => self.check_auth(&proof, io)?,
+            // A worker with a secret serves only a master that proved it.
+            msg if matches!(self.trust, Trust::Awaiting { .. }) => {
+                io.send(&WorkerMessage::Refused {
+                    job: request_job(&msg),
+                    reason: Refusal::Unauthenticated,
+                })?;
+                return Err(WorkerError::Unauthenticated);
+            }
             MasterMessage::Job {
                 job,
                 digest,
@@ -386,9 +435,30 @@ impl Session<'_> {
                 self.render(job, line, Some(mask), io)?;
             }
             MasterMessage::Fence { seq } => io.send(&WorkerMessage::FenceAck { seq })?,
-            MasterMessage::EndSession => return Ok(Some(SessionEnd::Ended)),
         }
         Ok(None)
+    }
+
+    /// Checks the master's `Auth`: the session goes on if it proves the secret, and ends with
+    /// a refusal if it does not. Without a secret, or once proven, an `Auth` changes nothing.
+    fn check_auth<L, O: Outbox<L>>(
+        &mut self,
+        proof: &auth::Proof,
+        io: &mut Io<'_, L, O>,
+    ) -> Result<(), WorkerError> {
+        let (Trust::Awaiting { master, worker }, Some(secret)) = (self.trust, self.node.secret)
+        else {
+            return Ok(());
+        };
+        if auth::verify(secret, Role::Master, &master, &worker, proof) {
+            self.trust = Trust::Proven;
+            return Ok(());
+        }
+        io.send(&WorkerMessage::Refused {
+            job: 0,
+            reason: Refusal::Unauthenticated,
+        })?;
+        Err(WorkerError::Unauthenticated)
     }
 
     /// Starts (or re-announces) a job and gives the answer to its `Job` message.
@@ -512,6 +582,17 @@ impl Session<'_> {
             _ => Refusal::UnknownJob,
         };
         io.send(&WorkerMessage::Refused { job: id, reason })
+    }
+}
+
+/// The job a request names (0 for messages that name none).
+fn request_job(msg: &MasterMessage<'_>) -> u32 {
+    match *msg {
+        MasterMessage::Job { job, .. }
+        | MasterMessage::RenderLine { job, .. }
+        | MasterMessage::RenderLines { job, .. }
+        | MasterMessage::RefineLine { job, .. } => job,
+        _ => 0,
     }
 }
 

@@ -309,6 +309,8 @@ impl PtyWorker {
                     arch: std::env::consts::ARCH,
                     scene_memory: u64::MAX,
                     threads: 1,
+                    secret: None,
+                    nonce: || [7; 32],
                 };
                 let mut cache = SceneCache::new();
                 let mut ends = Vec::new();
@@ -356,6 +358,8 @@ impl PtyWorker {
             arch: "test",
             scene_memory: 0,
             threads: 0,
+            nonce: [0; 32],
+            proof: None,
         });
         for msg in [hello, MasterMessage::EndSession] {
             bytes.extend_from_slice(frames.encode(&msg).map_err(|e| format!("{e:?}"))?);

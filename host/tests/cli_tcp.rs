@@ -238,6 +238,8 @@ fn hello(version: u32, name: &str) -> Hello<'_> {
         arch: "test",
         scene_memory: 0,
         threads: 0,
+        nonce: [9; 32],
+        proof: None,
     }
 }
 

@@ -194,6 +194,7 @@ fn options(window: u32, timeout_ms: u64) -> MasterOptions {
         worker_timeout: Duration::from_millis(timeout_ms),
         wait_for_workers: Duration::from_secs(30),
         name: "cluster-sim-test".to_string(),
+        secret: None,
     }
 }
 

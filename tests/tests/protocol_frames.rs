@@ -20,7 +20,7 @@ use strahl_core::scene::{Blend, SceneDesc};
 use strahl_core::wire::error::ProtocolError;
 use strahl_core::wire::frame::{DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::wire::message::{
-    decode_pixels, encode_pixels, Hello, MasterMessage, Refusal, WorkerMessage,
+    decode_pixels, encode_pixels, Hello, MasterMessage, Refusal, Rejection, WorkerMessage,
 };
 use strahl_core::wire::scene_blob::{
     decode_bundle, digest, ChunkOutcome, SceneAssembler, SceneBlob,
@@ -248,6 +248,8 @@ fn master_samples<'a>(names: &'a str, chunk: &'a [u8]) -> Vec<MasterMessage<'a>>
             arch: ARCH,
             scene_memory: 0,
             threads: 0,
+            nonce: [0x5A; 32],
+            proof: None,
         }),
         MasterMessage::Job {
             job: 3,
@@ -281,6 +283,10 @@ fn master_samples<'a>(names: &'a str, chunk: &'a [u8]) -> Vec<MasterMessage<'a>>
             first: 17,
             count: MAX_LINES_PER_REQUEST,
         },
+        MasterMessage::Auth { proof: [0xC3; 32] },
+        MasterMessage::Reject {
+            reason: Rejection::WrongProof,
+        },
     ]
 }
 
@@ -293,6 +299,8 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
             arch: ARCH,
             scene_memory: 1 << 40,
             threads: 16,
+            nonce: [0x5A; 32],
+            proof: Some([0xA5; 32]),
         }),
         WorkerMessage::NeedScene {
             job: 3,
@@ -328,6 +336,7 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
         Refusal::UnknownJob,
         Refusal::LineOutOfRange,
         Refusal::BadMask,
+        Refusal::Unauthenticated,
     ];
     v.extend(
         refusals
@@ -348,6 +357,8 @@ fn master_variant(m: &MasterMessage<'_>) -> usize {
         MasterMessage::EndSession => 5,
         MasterMessage::RefineLine { .. } => 6,
         MasterMessage::RenderLines { .. } => 7,
+        MasterMessage::Auth { .. } => 8,
+        MasterMessage::Reject { .. } => 9,
     }
 }
 
@@ -443,6 +454,8 @@ fn largest_master_messages_fit_a_worker_buffer() {
             arch: &arch,
             scene_memory: u64::MAX,
             threads: u32::MAX,
+            nonce: [0x5A; 32],
+            proof: Some([0xA5; 32]),
         }),
         MasterMessage::Job {
             job: u32::MAX,
@@ -464,6 +477,7 @@ fn largest_master_messages_fit_a_worker_buffer() {
             count: MAX_LINES_PER_REQUEST,
         },
         MasterMessage::Fence { seq: u32::MAX },
+        MasterMessage::Auth { proof: [0xFF; 32] },
     ];
     let mut stream = Vec::new();
     for m in &msgs {
@@ -524,7 +538,7 @@ fn every_message_variant_round_trips() {
     );
     let frames = frames_of(&events);
     assert_eq!(frames.len(), masters.len(), "{events:?}");
-    let mut seen = [false; 8];
+    let mut seen = [false; 10];
     for (payload, m) in frames.iter().zip(&masters) {
         let got = MasterMessage::decode(payload).expect("master message decodes");
         assert_eq!(&got, m);
@@ -986,6 +1000,8 @@ fn hello_names_are_bounded() {
             arch,
             scene_memory: 0,
             threads: 0,
+            nonce: [0x5A; 32],
+            proof: None,
         }
     }
     for (name, arch) in [(long.as_str(), ARCH), (NAME, long.as_str())] {

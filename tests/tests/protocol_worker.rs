@@ -18,8 +18,11 @@ use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{Scene, SceneDesc};
+use strahl_core::wire::auth::{self, Role};
 use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
-use strahl_core::wire::message::{decode_pixels, Hello, MasterMessage, Refusal, WorkerMessage};
+use strahl_core::wire::message::{
+    decode_pixels, Hello, MasterMessage, Refusal, Rejection, WorkerMessage,
+};
 use strahl_core::wire::scene_blob::{memory_estimate, SceneBlob};
 use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
@@ -90,6 +93,8 @@ impl Script {
             arch: "x86_64",
             scene_memory: 0,
             threads: 0,
+            nonce: MASTER_NONCE,
+            proof: None,
         }))
     }
 
@@ -131,6 +136,8 @@ enum Out {
         arch: String,
         scene_memory: u64,
         threads: u32,
+        nonce: [u8; 32],
+        proof: Option<[u8; 32]>,
     },
     NeedScene {
         job: u32,
@@ -174,6 +181,8 @@ impl Out {
                 arch: h.arch.to_owned(),
                 scene_memory: h.scene_memory,
                 threads: h.threads,
+                nonce: h.nonce,
+                proof: h.proof,
             },
             WorkerMessage::NeedScene {
                 job,
@@ -245,8 +254,14 @@ fn node(scene_memory: u64) -> NodeInfo<'static> {
         arch: ARCH,
         scene_memory,
         threads: 1,
+        secret: None,
+        nonce: || WORKER_NONCE,
     }
 }
+
+/// The nonces of the scripted handshakes (fixed, so the proofs can be checked).
+const MASTER_NONCE: [u8; 32] = [0x11; 32];
+const WORKER_NONCE: [u8; 32] = [0x22; 32];
 
 fn worker_hello(scene_memory: u64) -> Out {
     Out::Hello {
@@ -255,6 +270,8 @@ fn worker_hello(scene_memory: u64) -> Out {
         arch: ARCH.to_owned(),
         scene_memory,
         threads: 1,
+        nonce: WORKER_NONCE,
+        proof: None,
     }
 }
 
@@ -590,6 +607,108 @@ fn a_multi_line_request_is_answered_line_by_line_in_order() {
     assert_eq!(out, want);
 }
 
+const SECRET: &[u8] = b"sixteen or more bytes of secret";
+
+/// A worker that requires [`SECRET`].
+fn guarded_node() -> NodeInfo<'static> {
+    NodeInfo {
+        secret: Some(SECRET),
+        ..node(MEMORY)
+    }
+}
+
+/// The `Hello` a worker with [`SECRET`] answers [`Script::hello`] with: its proof over both
+/// nonces.
+fn guarded_hello() -> Out {
+    Out::Hello {
+        version: PROTOCOL_VERSION,
+        name: NAME.to_owned(),
+        arch: ARCH.to_owned(),
+        scene_memory: MEMORY,
+        threads: 1,
+        nonce: WORKER_NONCE,
+        proof: Some(auth::prove(
+            SECRET,
+            Role::Worker,
+            &MASTER_NONCE,
+            &WORKER_NONCE,
+        )),
+    }
+}
+
+#[test]
+fn a_worker_with_a_secret_serves_a_master_that_proves_it() {
+    let f = room();
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let proof = auth::prove(SECRET, Role::Master, &MASTER_NONCE, &WORKER_NONCE);
+    let mut script = Script::default();
+    script
+        .hello()
+        .send(MasterMessage::Auth { proof })
+        .job(1, &f.blob)
+        .line(1, 2)
+        .send(MasterMessage::EndSession);
+    let (result, out) = run(&script, &guarded_node(), &mut cache);
+    assert_eq!(result, Ok(SessionEnd::Ended));
+    assert_eq!(
+        out,
+        vec![
+            guarded_hello(),
+            Out::Ready { job: 1 },
+            expected_line(&f, 1, 2)
+        ]
+    );
+}
+
+#[test]
+fn a_worker_with_a_secret_refuses_a_master_that_does_not_prove_it() {
+    let f = room();
+    let refused = |job| Out::Refused {
+        job,
+        reason: Refusal::Unauthenticated,
+    };
+    // No Auth at all: the job is refused and the session ends.
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let mut script = Script::default();
+    script.hello().job(1, &f.blob).line(1, 2);
+    let (result, out) = run(&script, &guarded_node(), &mut cache);
+    assert_eq!(result, Err(WorkerError::Unauthenticated));
+    assert_eq!(out, vec![guarded_hello(), refused(1)]);
+    // A proof made with another secret, another worker nonce (a replay of another session),
+    // or the worker's own proof reflected back: all refused.
+    let wrong = [
+        auth::prove(
+            b"another secret, 16+",
+            Role::Master,
+            &MASTER_NONCE,
+            &WORKER_NONCE,
+        ),
+        auth::prove(SECRET, Role::Master, &MASTER_NONCE, &[0x33; 32]),
+        auth::prove(SECRET, Role::Worker, &MASTER_NONCE, &WORKER_NONCE),
+    ];
+    for proof in wrong {
+        let mut script = Script::default();
+        script
+            .hello()
+            .send(MasterMessage::Auth { proof })
+            .job(1, &f.blob);
+        let (result, out) = run(&script, &guarded_node(), &mut cache);
+        assert_eq!(result, Err(WorkerError::Unauthenticated));
+        assert_eq!(out, vec![guarded_hello(), refused(0)]);
+    }
+}
+
+#[test]
+fn a_rejected_worker_ends_the_session_with_the_reason() {
+    let mut script = Script::default();
+    script.hello().send(MasterMessage::Reject {
+        reason: Rejection::NoProof,
+    });
+    let (result, out) = run(&script, &node(MEMORY), &mut SceneCache::new());
+    assert_eq!(result, Err(WorkerError::Rejected(Rejection::NoProof)));
+    assert_eq!(out, vec![worker_hello(MEMORY)]);
+}
+
 #[test]
 fn version_mismatch_answers_hello_and_ends() {
     let f = room();
@@ -601,6 +720,8 @@ fn version_mismatch_answers_hello_and_ends() {
             arch: "x86_64",
             scene_memory: 0,
             threads: 0,
+            nonce: MASTER_NONCE,
+            proof: None,
         }))
         .job(1, &f.blob)
         .send(MasterMessage::Fence { seq: 1 });

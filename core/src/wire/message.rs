@@ -9,6 +9,7 @@
 use crate::render::pixel::Pixel;
 use crate::render::stats::RayCounts;
 use crate::scene::error::SceneError;
+use crate::wire::auth::{Nonce, Proof};
 use crate::wire::error::ProtocolError;
 use crate::wire::{
     MAX_CHUNK_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH,
@@ -32,6 +33,11 @@ pub struct Hello<'a> {
     pub scene_memory: u64,
     /// Lines the node renders at once (a worker's threads, at least 1; 0 from a master).
     pub threads: u32,
+    /// A fresh random value for this handshake ([`crate::wire::auth`]).
+    pub nonce: Nonce,
+    /// A worker with a secret: its proof over both nonces; `None` from a master or a worker
+    /// without a secret.
+    pub proof: Option<Proof>,
 }
 
 impl Hello<'_> {
@@ -106,6 +112,28 @@ pub enum MasterMessage<'a> {
         /// How many lines.
         count: u32,
     },
+    /// The master's proof of the shared secret over both `Hello`s' nonces; a worker with a
+    /// secret takes no job before it.
+    Auth {
+        /// `HMAC(secret, "strahl master" ‖ version ‖ master nonce ‖ worker nonce)`.
+        proof: Proof,
+    },
+    /// The master will not work with this worker and ends the session.
+    Reject {
+        /// Why.
+        reason: Rejection,
+    },
+}
+
+/// Why a master rejects a worker after its `Hello`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Rejection {
+    /// The master needs a proof of the secret and the worker gave none.
+    NoProof,
+    /// The worker's proof does not match the master's secret.
+    WrongProof,
+    /// The worker gave a proof but the master has no secret to check it or answer with.
+    MasterHasNoSecret,
 }
 
 /// Why a worker refuses a job or request.
@@ -127,6 +155,9 @@ pub enum Refusal {
     /// A `RefineLine` whose mask does not fit the image width, or for a scene without adaptive
     /// multisampling.
     BadMask,
+    /// The worker has a secret and the master has not proved it holds it (no `Auth`, or a
+    /// wrong one); the worker ends the session.
+    Unauthenticated,
 }
 
 /// Worker to master.
@@ -216,7 +247,9 @@ impl<'a> MasterMessage<'a> {
             }
             MasterMessage::RenderLine { .. }
             | MasterMessage::Fence { .. }
-            | MasterMessage::EndSession => {}
+            | MasterMessage::EndSession
+            | MasterMessage::Auth { .. }
+            | MasterMessage::Reject { .. } => {}
         }
         Ok(msg)
     }

@@ -10,6 +10,7 @@
 //!   pixel encoding.
 //! - [`scene_blob`]: a scene as bytes: encoded with postcard, named by its SHA-256 digest, sent in
 //!   chunks and put back together by [`scene_blob::SceneAssembler`].
+//! - [`auth`]: the shared-secret handshake's proofs (HMAC-SHA256 over both sides' nonces).
 //! - [`error`]: [`ProtocolError`](error::ProtocolError), why bytes from the wire cannot be used.
 //!
 //! Wire code is pure: it turns bytes into validated messages and back and never renders; the
@@ -20,6 +21,7 @@
 //! The limits below are part of the protocol: a peer that exceeds one is sending bad frames.
 //! `docs/protocol.md` describes the message sequence.
 
+pub mod auth;
 pub mod error;
 pub mod frame;
 pub mod message;

@@ -18,6 +18,7 @@ use crate::cluster::report::WorkerTable;
 use crate::formats::fs::write_atomically;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
 use crate::output::{check_output_path, write_image};
+use crate::util::secret::{load_secret, Secret};
 use anyhow::anyhow;
 use clap::Args;
 use std::io::Write as _;
@@ -235,6 +236,16 @@ pub struct ClusterArgs {
     #[arg(long = "serial", value_name = "PATH[:BAUD]")]
     pub serial: Vec<String>,
 
+    /// Prove to workers, and require of them, the shared secret in FILE (at least 16 bytes)
+    /// [default: the secret in the environment variable STRAHL_SECRET, if set]. Without a
+    /// secret, --listen and --launch listen on this machine only.
+    #[arg(long, value_name = "FILE")]
+    pub secret_file: Option<PathBuf>,
+
+    /// Listen for workers on an address other machines can reach without a secret.
+    #[arg(long)]
+    pub insecure: bool,
+
     /// Line requests each worker thread has outstanding; 1 is the seed's one line at a time.
     #[arg(long, value_name = "N", default_value_t = WINDOW,
           value_parser = clap::value_parser!(u32).range(1..=64))]
@@ -266,17 +277,19 @@ pub fn positive_seconds(s: &str) -> Result<f64, String> {
 impl ClusterArgs {
     /// Whether any worker outside this process is named.
     pub fn has_remote(&self) -> bool {
-        self.sources().has_remote()
+        self.sources(false).has_remote()
     }
 
-    /// The workers named, for [`start_workers`].
-    pub fn sources(&self) -> WorkerSources {
+    /// The workers named, for [`start_workers`]; `secret`: whether the master has one.
+    pub fn sources(&self, secret: bool) -> WorkerSources {
         WorkerSources {
             worker: self.worker.clone(),
             hosts: self.hosts.clone(),
             listen: self.listen.clone(),
             launch: self.launch.clone(),
             serial: self.serial.clone(),
+            secret,
+            insecure: self.insecure,
         }
     }
 }
@@ -311,10 +324,11 @@ impl RenderArgs {
         }
     }
 
-    /// The master's options from the command line.
-    pub fn master_options(&self) -> MasterOptions {
+    /// The master's options from the command line, with its shared secret.
+    pub fn master_options(&self, secret: Option<Secret>) -> MasterOptions {
         let timeout = Duration::from_secs_f64(self.cluster.worker_timeout);
         MasterOptions {
+            secret,
             window: self.cluster.window,
             lines_per_request: self.cluster.lines_per_request,
             probe_interval: (timeout / 4).min(PROBE_INTERVAL),
@@ -338,6 +352,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let load = start.elapsed();
     // Fail before the long part if the image or the statistics cannot be written.
     check_output_path(&loaded.output)?;
+    let secret = load_secret(args.cluster.secret_file.as_deref())?;
     if let Some(stats) = &args.stats_json {
         check_stats_path(stats)?;
     }
@@ -356,7 +371,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     warn_about_scene(args, &loaded, &prepared, &warn);
     let mut workers = start_workers(
-        &args.cluster.sources(),
+        &args.cluster.sources(secret.is_some()),
         args.worker_count(),
         &prepared,
         &warn,
@@ -366,7 +381,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         &prepared.job(),
         std::mem::take(&mut workers.links),
         workers.joins.as_ref(),
-        &args.master_options(),
+        &args.master_options(secret),
         &|_, rays| progress.line_done(rays),
         &warn,
     );

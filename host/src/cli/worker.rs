@@ -12,11 +12,14 @@
 //! master's side in [`crate::cluster`]. The host name it defaults to comes from
 //! [`crate::util::sys`], shared with the master.
 
+use crate::util::secret::{check_exposure, load_secret, random_nonce, Secret};
 use crate::util::sys::{cut_name, host_name};
 use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
 use std::net::TcpListener;
+use std::path::PathBuf;
 use std::time::Duration;
+use strahl_core::wire::message::Rejection;
 use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 use strahl_tcp::SessionError;
 
@@ -55,6 +58,17 @@ pub struct WorkerArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=MAX_THREADS))]
     pub threads: Option<u32>,
 
+    /// Require masters to prove they hold the shared secret in FILE (at least 16 bytes; a
+    /// trailing line break is not part of it) [default: the secret in the environment
+    /// variable STRAHL_SECRET, if set]. Without a secret, --listen binds only to this machine.
+    #[arg(long, value_name = "FILE")]
+    pub secret_file: Option<PathBuf>,
+
+    /// Listen on an address other machines can reach without a secret: anyone who reaches the
+    /// port can make this worker render.
+    #[arg(long)]
+    pub insecure: bool,
+
     /// Stop after serving N sessions (listening and serial workers) [default: never].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..))]
     pub sessions: Option<u32>,
@@ -88,6 +102,12 @@ fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
         Err(WorkerError::Encode(e)) => {
             format!("a reply to the master could not be encoded ({e}); session ended")
         }
+        Err(WorkerError::Unauthenticated) => "refused: the master did not prove the shared \
+                                              secret (give it the same --secret-file)"
+            .to_string(),
+        Err(WorkerError::Rejected(r)) => {
+            format!("the master rejected this worker: {}", rejection_text(*r))
+        }
     }
 }
 
@@ -96,6 +116,18 @@ fn describe_tcp(outcome: &Result<SessionEnd, SessionError>) -> String {
         Ok(end) => describe(&Ok(*end)),
         Err(SessionError::Worker(e)) => describe(&Err(*e)),
         Err(SessionError::Setup(e)) => format!("cannot set up the connection: {e}"),
+    }
+}
+
+/// A master's rejection in words.
+fn rejection_text(r: Rejection) -> &'static str {
+    match r {
+        Rejection::NoProof => "it requires a shared secret; start this worker with --secret-file",
+        Rejection::WrongProof => "this worker's secret is not the master's",
+        Rejection::MasterHasNoSecret => {
+            "this worker requires a shared secret and the master has none (give it the same \
+             --secret-file)"
+        }
     }
 }
 
@@ -115,20 +147,29 @@ pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
         (None, Some(n)) => n,
         (None, None) => std::thread::available_parallelism().map_or(1, |n| n.get() as u32),
     };
+    let secret = load_secret(args.secret_file.as_deref())?;
     let node = NodeInfo {
         name: &name,
         arch: std::env::consts::ARCH,
         scene_memory: memory,
         threads,
+        secret: secret.as_ref().map(Secret::bytes),
+        nonce: random_nonce,
     };
     let mut cache = SceneCache::new();
     if let Some(listen) = &args.listen {
         let endpoint =
             strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen: {e}"))?;
+        check_exposure(&endpoint, secret.is_some(), args.insecure, "this worker")?;
         let listener =
             TcpListener::bind(&endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
         let addr = listener.local_addr()?;
-        eprintln!("strahl worker {name} ({threads} threads): listening on {addr}");
+        let trust = if secret.is_some() {
+            "masters must prove the shared secret"
+        } else {
+            "no secret: any master that reaches the port"
+        };
+        eprintln!("strahl worker {name} ({threads} threads, {trust}): listening on {addr}");
         strahl_tcp::serve_listener(
             &listener,
             &node,

@@ -9,6 +9,7 @@ use crate::cluster::link::Link;
 use crate::cluster::local::spawn_local_workers;
 use crate::cluster::prepared::PreparedScene;
 use crate::formats::hosts::{read_hosts_file, HostEntry};
+use crate::util::secret::check_exposure;
 use crate::util::sys::{CONNECT_TIMEOUT, POLL_INTERVAL};
 use anyhow::{anyhow, bail, Context as _};
 use nix::sys::signal::{killpg, Signal};
@@ -36,6 +37,10 @@ pub struct WorkerSources {
     pub launch: Option<String>,
     /// Serial workers at `PATH[:BAUD]`.
     pub serial: Vec<String>,
+    /// Whether the master has a shared secret (then it may listen on any address).
+    pub secret: bool,
+    /// Listen beyond this machine without a secret (`--insecure`).
+    pub insecure: bool,
 }
 
 impl WorkerSources {
@@ -144,9 +149,16 @@ pub fn start_workers(
     }
 
     if args.listen.is_some() || args.launch.is_some() {
-        let spec = args.listen.as_deref().unwrap_or("0.0.0.0:0");
+        // Without a secret, a master that listens for workers listens on this machine only.
+        let default = if args.secret {
+            "0.0.0.0:0"
+        } else {
+            "127.0.0.1:0"
+        };
+        let spec = args.listen.as_deref().unwrap_or(default);
         let endpoint =
             strahl_tcp::parse_listen_address(spec).map_err(|e| anyhow!("--listen {e}"))?;
+        check_exposure(&endpoint, args.secret, args.insecure, "this master")?;
         let (acceptor, joins) = accept_workers(&endpoint)?;
         if let Some(template) = &args.launch {
             let master = if acceptor.address.ip().is_unspecified() {

@@ -2,6 +2,7 @@
 //! image and the errors. Plain data, used by the session, the assembly and the master loop.
 
 use crate::cluster::report::WorkerReport;
+use crate::util::secret::Secret;
 use std::sync::Arc;
 use std::time::Duration;
 use strahl_core::render::pixel::Pixel;
@@ -25,6 +26,9 @@ pub struct MasterOptions {
     pub wait_for_workers: Duration,
     /// The master's name in its `Hello`.
     pub name: String,
+    /// The shared secret workers must prove, and the master proves to them; `None`: workers
+    /// without a secret only.
+    pub secret: Option<Secret>,
 }
 
 /// The longest silence before the master probes a worker (a shorter worker timeout probes at a
@@ -46,6 +50,7 @@ impl Default for MasterOptions {
             worker_timeout: WORKER_TIMEOUT,
             wait_for_workers: WORKER_TIMEOUT,
             name: "strahl-master".to_string(),
+            secret: None,
         }
     }
 }

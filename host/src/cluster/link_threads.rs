@@ -27,12 +27,16 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
             name,
             arch,
             threads,
+            nonce,
+            proof,
             ..
         }) => Incoming::Hello {
             version,
             name: name.to_string(),
             arch: arch.to_string(),
             threads,
+            nonce,
+            proof,
         },
         WorkerMessage::NeedScene {
             job,
@@ -248,9 +252,9 @@ impl Links {
         reader_ok && writer_ok
     }
 
-    /// Closes worker `id`'s queue: its writer sends what is queued, then hangs up.
-    pub(crate) fn close_queue(&mut self, id: usize) {
-        self.ends[id].tx = None;
+    /// Whether worker `id`'s link was cut (its writer stops without sending what is queued).
+    pub(crate) fn is_cut(&self, id: usize) -> bool {
+        self.ends[id].outbox.cut.load(Ordering::Relaxed)
     }
 
     /// Waits until `deadline` for the writers of `live` links to finish; returns those that
@@ -297,6 +301,11 @@ impl Wire for Links {
 
     fn last_chunk_write(&self, id: usize) -> Instant {
         self.ends[id].outbox.last_chunk_write()
+    }
+
+    fn close(&mut self, id: usize) {
+        // Closing the queue lets the writer send what is queued, then hang up.
+        self.ends[id].tx = None;
     }
 
     fn cut(&mut self, id: usize) {

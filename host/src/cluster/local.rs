@@ -9,6 +9,7 @@ use crate::cluster::link::Link;
 use crate::cluster::master::{run_master, ClusterError, ClusterImage, MasterOptions};
 use crate::cluster::pipe::{duplex, LinkModel, PipeEnd};
 use crate::cluster::prepared::PreparedScene;
+use crate::util::secret::random_nonce;
 use embedded_io_adapters::std::FromStd;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::worker::{serve_with, Inline, NodeInfo, Outbox, SceneCache};
@@ -67,6 +68,8 @@ fn run_pipe_worker<O: Outbox<FromStd<PipeEnd>>>(
         arch: std::env::consts::ARCH,
         scene_memory: LOCAL_SCENE_MEMORY,
         threads: 1,
+        secret: None,
+        nonce: random_nonce,
     };
     let mut link = FromStd::new(end);
     // However the session ends, the master sees it on the link; nothing to report here.

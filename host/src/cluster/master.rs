@@ -104,13 +104,17 @@ fn finish(
         if live.contains(&id) {
             wire.send(id, &MasterMessage::EndSession);
         }
-        // Closing the queue lets the writer send what is queued, then hang up.
-        wire.close_queue(id);
+        wire.close(id);
     }
-    // Give the writers a moment to deliver `EndSession`, so workers know the session is
-    // over before this process exits; a writer stuck on a dead link is not waited for.
+    // Give the writers a moment to deliver `EndSession` (or a rejection), so workers know the
+    // session is over before this process exits; a writer stuck on a dead link is not waited
+    // for, nor one whose link was cut.
     let deadline = Instant::now() + END_SESSION_GRACE;
-    let finished = wire.wait_for_writers(&live, deadline);
+    let writing: HashSet<usize> = (0..session.workers())
+        .filter(|&id| !wire.is_cut(id))
+        .collect();
+    let finished = wire.wait_for_writers(&writing, deadline);
+    let finished: HashSet<usize> = finished.intersection(&live).copied().collect();
     // Then read until each worker that got `EndSession` closes its end (what it still sends
     // is dropped): a socket closed while the worker's frames sit unread in it would reset
     // the connection, and the worker could lose `EndSession` and report a failed session.

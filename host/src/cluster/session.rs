@@ -17,12 +17,14 @@ use crate::cluster::job::{ClusterError, ClusterImage, ClusterJob, MasterOptions}
 use crate::cluster::link::LinkKind;
 use crate::cluster::report::WorkerReport;
 use crate::cluster::schedule::{LineScheduler, Task};
+use crate::util::secret::random_nonce;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
-use strahl_core::wire::message::{Hello, MasterMessage, Refusal};
+use strahl_core::wire::auth::{self, Nonce, Proof, Role};
+use strahl_core::wire::message::{Hello, MasterMessage, Refusal, Rejection};
 use strahl_core::wire::{MAX_LINES_PER_REQUEST, PROTOCOL_VERSION, SCENE_WINDOW};
 
 /// Where the session sends its messages to workers.
@@ -35,6 +37,8 @@ pub(crate) trait Wire {
     fn last_chunk_write(&self, id: usize) -> Instant;
     /// Cuts worker `id`'s link: nothing more goes out, blocked reads and writes return.
     fn cut(&mut self, id: usize);
+    /// Closes worker `id`'s link once what is queued for it is written.
+    fn close(&mut self, id: usize);
 }
 
 /// A worker's message, decoded and checked in its reader thread, owning its data. It mirrors
@@ -47,6 +51,8 @@ pub(crate) enum Incoming {
         name: String,
         arch: String,
         threads: u32,
+        nonce: Nonce,
+        proof: Option<Proof>,
     },
     NeedScene {
         job: u32,
@@ -128,6 +134,8 @@ struct Fence {
 struct Peer {
     report: WorkerReport,
     state: State,
+    /// The master's nonce in every `Hello` to this worker ([`strahl_core::wire::auth`]).
+    nonce: Nonce,
     /// The last step forward: its `Hello`, a `NeedScene` further on than before, `Ready`, a
     /// result for a line it was asked for (or the request that ended an idle spell). Fence
     /// answers, drop notices, bad frames and stale messages are no progress: a worker that is
@@ -229,6 +237,7 @@ impl<'a> Session<'a> {
         self.peers.push(Peer {
             report: WorkerReport::new(address, kind),
             state: State::Greeting,
+            nonce: random_nonce(),
             last_progress: now,
             last_probe: now,
             requests: VecDeque::new(),
@@ -273,6 +282,8 @@ impl<'a> Session<'a> {
             arch: std::env::consts::ARCH,
             scene_memory: 0,
             threads: 0,
+            nonce: self.peers[id].nonce,
+            proof: None,
         });
         wire.send(id, &msg);
     }
@@ -366,7 +377,16 @@ impl<'a> Session<'a> {
                 name,
                 arch,
                 threads,
-            } => self.on_hello(id, version, (name, arch, threads), now, wire),
+                nonce,
+                proof,
+            } => {
+                let peer = &mut self.peers[id];
+                if peer.state == State::Greeting {
+                    (peer.report.name, peer.report.arch) = (name, arch);
+                    peer.report.threads = threads.max(1);
+                }
+                self.on_hello(id, version, (nonce, proof), now, wire);
+            }
             Incoming::NeedScene {
                 job: j,
                 offset,
@@ -398,6 +418,14 @@ impl<'a> Session<'a> {
                 self.peers[id].report.frames_dropped += 1;
                 self.fence_after_loss(id, now, wire);
             }
+            Incoming::Refused {
+                reason: Refusal::Unauthenticated,
+                ..
+            } => {
+                let reason = "it refused this master: it requires the shared secret \
+                              (--secret-file), and this master has another or none";
+                self.lose(id, reason.to_string(), wire);
+            }
             Incoming::Refused { job: j, reason } if j == job => {
                 let reason = format!("it refused the job: {}", refusal_text(reason));
                 self.lose(id, reason, wire);
@@ -412,12 +440,13 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// A worker's `Hello`, with its name, architecture and threads.
+    /// A worker's `Hello` (its name, architecture and threads are taken): the version, then
+    /// the secret, then the job.
     fn on_hello(
         &mut self,
         id: usize,
         version: u32,
-        (name, arch, threads): (String, String, u32),
+        (nonce, proof): (Nonce, Option<Proof>),
         now: Instant,
         wire: &mut dyn Wire,
     ) {
@@ -434,13 +463,49 @@ impl<'a> Session<'a> {
                 wire,
             );
         }
+        if let Err((rejection, reason)) = self.authenticate(id, &nonce, proof.as_ref(), wire) {
+            return self.reject(id, rejection, reason, wire);
+        }
         let peer = &mut self.peers[id];
         peer.last_progress = now;
-        peer.report.name = name;
-        peer.report.arch = arch;
-        peer.report.threads = threads.max(1);
         peer.state = State::Loading;
         self.send_job(id, wire);
+    }
+
+    /// Checks worker `id`'s proof of the secret (`worker` is its nonce) and proves the
+    /// master's; or says why the worker is rejected.
+    fn authenticate(
+        &self,
+        id: usize,
+        worker: &Nonce,
+        proof: Option<&Proof>,
+        wire: &mut dyn Wire,
+    ) -> Result<(), (Rejection, &'static str)> {
+        let master = &self.peers[id].nonce;
+        // Workers in this process share the master's trust: they have no secret to prove.
+        if self.peers[id].report.kind == LinkKind::InProcess {
+            return Ok(());
+        }
+        match (&self.opts.secret, proof) {
+            (None, None) => Ok(()),
+            (None, Some(_)) => Err((
+                Rejection::MasterHasNoSecret,
+                "it requires a shared secret: give this master the same --secret-file",
+            )),
+            (Some(_), None) => Err((
+                Rejection::NoProof,
+                "it has no shared secret: start it with --secret-file",
+            )),
+            (Some(k), Some(p)) if auth::verify(k.bytes(), Role::Worker, master, worker, p) => {
+                let proof = auth::prove(k.bytes(), Role::Master, master, worker);
+                wire.send(id, &MasterMessage::Auth { proof });
+                Ok(())
+            }
+            (Some(_), Some(_)) => Err((
+                Rejection::WrongProof,
+                "its proof of the shared secret is wrong (another secret)",
+            )),
+        }
     }
 
     fn on_need_scene(
@@ -552,12 +617,27 @@ impl<'a> Session<'a> {
 
     /// Drops worker `id`: its tasks go back to the queue and its link is cut.
     fn lose(&mut self, id: usize, reason: String, wire: &mut dyn Wire) {
-        let peer = &mut self.peers[id];
-        if peer.state == State::Gone {
-            return;
+        if self.peers[id].state != State::Gone {
+            wire.cut(id);
+            self.forget(id, reason);
         }
+    }
+
+    /// Rejects worker `id` after its `Hello`: it is told why (`Reject`), its link closes once
+    /// that is written, and it is dropped.
+    fn reject(&mut self, id: usize, rejection: Rejection, reason: &str, wire: &mut dyn Wire) {
+        if self.peers[id].state != State::Gone {
+            wire.send(id, &MasterMessage::Reject { reason: rejection });
+            wire.close(id);
+            self.forget(id, reason.to_string());
+        }
+    }
+
+    /// Marks worker `id` gone (its link already cut or closing): its tasks go back to the
+    /// queue, and the loss is logged and reported.
+    fn forget(&mut self, id: usize, reason: String) {
+        let peer = &mut self.peers[id];
         peer.state = State::Gone;
-        wire.cut(id);
         let tasks: Vec<Task> = peer.requests.drain(..).map(|r| r.task).collect();
         let before = peer.report.reissued;
         self.release(id, &tasks);
@@ -748,6 +828,7 @@ pub fn refusal_text(reason: Refusal) -> String {
         Refusal::UnknownJob => "it does not know the job".to_string(),
         Refusal::LineOutOfRange => "a line outside the image was requested".to_string(),
         Refusal::BadMask => "a refine request did not fit the scene".to_string(),
+        Refusal::Unauthenticated => "the master did not prove the shared secret".to_string(),
     }
 }
 
@@ -782,6 +863,8 @@ mod tests {
                 MasterMessage::RenderLines { first, count, .. } => {
                     format!("RenderLines {first}+{count}")
                 }
+                MasterMessage::Auth { .. } => "Auth".to_string(),
+                MasterMessage::Reject { reason } => format!("Reject {reason:?}"),
                 MasterMessage::RefineLine { line, mask, .. } => {
                     format!("RefineLine {line} {mask:?}")
                 }
@@ -801,6 +884,10 @@ mod tests {
 
         fn cut(&mut self, id: usize) {
             self.cut.push(id);
+        }
+
+        fn close(&mut self, id: usize) {
+            self.sent.push((id, "(close)".to_string()));
         }
     }
 
@@ -852,6 +939,8 @@ mod tests {
             name: ["zero", "one"][id].to_string(),
             arch: "test".to_string(),
             threads: 1,
+            nonce: [id as u8; 32],
+            proof: None,
         };
         s.handle(Event::Message(id, hello), wire);
         let need = Incoming::NeedScene {

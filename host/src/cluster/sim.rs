@@ -8,6 +8,7 @@
 
 use crate::cluster::link::Link;
 use crate::cluster::pipe::{duplex, LinkModel, PipeCloser, PipeEnd};
+use crate::util::secret::random_nonce;
 use crate::util::sys::POLL_INTERVAL;
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use embedded_io_adapters::std::FromStd;
@@ -132,6 +133,8 @@ pub fn spawn_sim_worker(
                 arch: "simulated",
                 scene_memory: u64::MAX,
                 threads: 1,
+                secret: None,
+                nonce: random_nonce,
             };
             let mut link = FaultyLink {
                 inner: FromStd::new(worker_end),

@@ -1,6 +1,8 @@
 //! The neutral base every group of the host may use and that uses no group: the machine's name
-//! and the shared waits ([`sys`]), quantities as text ([`units`]). Atomic file writes are
+//! and the shared waits ([`sys`]), quantities as text ([`units`]), the cluster's shared secret
+//! ([`secret`]). Atomic file writes are
 //! `strahl_formats::fs`, below every group.
 
+pub mod secret;
 pub mod sys;
 pub mod units;

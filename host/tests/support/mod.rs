@@ -92,9 +92,18 @@ pub struct Proc {
 impl Proc {
     /// Starts `strahl ARGS...` with stdin and stdout closed and stderr collected.
     pub fn spawn<S: AsRef<str>>(args: &[S]) -> Result<Proc, Box<dyn Error>> {
+        Proc::spawn_env(args, &[])
+    }
+
+    /// [`Proc::spawn`] with environment variables set.
+    pub fn spawn_env<S: AsRef<str>>(
+        args: &[S],
+        env: &[(&str, &str)],
+    ) -> Result<Proc, Box<dyn Error>> {
         let args: Vec<&str> = args.iter().map(AsRef::as_ref).collect();
         let mut child = Command::new(BIN)
             .args(&args)
+            .envs(env.iter().copied())
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::piped())
