@@ -195,6 +195,7 @@ fn options(window: u32, timeout_ms: u64) -> MasterOptions {
         wait_for_workers: Duration::from_secs(30),
         name: "cluster-sim-test".to_string(),
         secret: None,
+        verify: 0.0,
     }
 }
 
@@ -606,7 +607,7 @@ fn seventy_two_simulated_workers_with_faults() {
                 );
                 early_reissued += w.reissued;
             }
-            Fault::None | Fault::Slow(_) => {
+            Fault::None | Fault::Slow(_) | Fault::WrongPixels => {
                 assert!(
                     w.lost.is_none(),
                     "{} ({spec:?}) was dropped although it answers: {}",
@@ -1171,4 +1172,105 @@ fn worker_alive_but_never_delivering_a_line_is_dropped() {
             .is_some_and(|l| l.starts_with("no answer")),
         "{err}"
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// 8. Trust but verify: a worker that sends wrong pixels
+// ---------------------------------------------------------------------------------------------
+
+/// A liar among honest workers, with `--verify FRACTION`: the image is the reference image,
+/// the liar is dropped with a reason that names the verification, and the honest workers are
+/// not.
+fn liar_is_caught(fraction: f64) {
+    let prepared = room(64, 48);
+    let want = reference(&prepared);
+    let cache = prepared.cache();
+    let liar = SimWorker {
+        fault: Fault::WrongPixels,
+        ..SimWorker::default()
+    };
+    let links = vec![
+        sim(1, liar, &cache),
+        sim(2, SimWorker::default(), &cache),
+        sim(3, SimWorker::default(), &cache),
+    ];
+    let opts = MasterOptions {
+        verify: fraction,
+        ..options(2, 5_000)
+    };
+    let image = master(&prepared, links, None, &opts, &|_| {}).expect("the honest finish it");
+    assert_same_image(&image, &want, &format!("--verify {fraction} with a liar"));
+    let workers = &image.workers;
+    let caught = report(workers, "sim 1");
+    assert!(
+        caught
+            .lost
+            .as_deref()
+            .is_some_and(|r| r.contains("--verify")),
+        "the liar is dropped for its pixels: {}",
+        table(workers)
+    );
+    for honest in ["sim 2", "sim 3"] {
+        assert!(report(workers, honest).lost.is_none(), "{}", table(workers));
+    }
+    let verified: u32 = workers.iter().map(|w| w.verified).sum();
+    assert!(verified > 0, "results were checked: {}", table(workers));
+}
+
+#[test]
+fn verify_all_catches_a_worker_with_wrong_pixels() {
+    liar_is_caught(1.0);
+}
+
+#[test]
+fn verify_a_sample_catches_a_liar_and_renders_its_unchecked_lines_again() {
+    liar_is_caught(0.25);
+}
+
+#[test]
+fn without_verify_a_liar_goes_unnoticed() {
+    // The check above could pass without verification only if the liar rendered nothing.
+    let prepared = room(64, 48);
+    let want = reference(&prepared);
+    let cache = prepared.cache();
+    let liar = SimWorker {
+        fault: Fault::WrongPixels,
+        ..SimWorker::default()
+    };
+    let image = master(
+        &prepared,
+        vec![sim(1, liar, &cache)],
+        None,
+        &options(2, 5_000),
+        &|_| {},
+    )
+    .expect("a render");
+    assert_ne!(
+        image.pixels, want.pixels,
+        "the liar's pixels are used unchecked"
+    );
+}
+
+#[test]
+fn verify_with_a_single_liar_is_settled_by_the_master() {
+    // No second worker to compare with: the master renders the held line itself, convicts
+    // the liar, and the render fails for lack of workers instead of writing wrong pixels.
+    let prepared = room(64, 48);
+    let cache = prepared.cache();
+    let liar = SimWorker {
+        fault: Fault::WrongPixels,
+        ..SimWorker::default()
+    };
+    let opts = MasterOptions {
+        verify: 1.0,
+        ..options(2, 5_000)
+    };
+    let result = master(&prepared, vec![sim(1, liar, &cache)], None, &opts, &|_| {});
+    let Err(ClusterError::AllWorkersLost { workers, .. }) = result else {
+        panic!("the render must fail: {result:?}");
+    };
+    assert!(workers[0]
+        .lost
+        .as_deref()
+        .is_some_and(|r| r.contains("--verify")));
 }

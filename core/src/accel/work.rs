@@ -17,7 +17,7 @@ pub struct QueryWork {
 
 impl core::ops::AddAssign for QueryWork {
     fn add_assign(&mut self, o: QueryWork) {
-        self.intersection_tests += o.intersection_tests;
-        self.octree_cells += o.octree_cells;
+        self.intersection_tests = self.intersection_tests.saturating_add(o.intersection_tests);
+        self.octree_cells = self.octree_cells.saturating_add(o.octree_cells);
     }
 }

@@ -242,6 +242,13 @@ pub struct ClusterArgs {
     #[arg(long, value_name = "FILE")]
     pub secret_file: Option<PathBuf>,
 
+    /// Have FRACTION (0 to 1) of the lines rendered by a second worker and compared byte for
+    /// byte before use; a worker whose pixels differ from the master's own render of that line
+    /// is dropped and its unchecked lines rendered again [default: 0]. With adaptive
+    /// multisampling every first pass is checked once FRACTION is above 0.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.0, value_parser = fraction)]
+    pub verify: f64,
+
     /// Listen for workers on an address other machines can reach without a secret.
     #[arg(long)]
     pub insecure: bool,
@@ -261,6 +268,17 @@ pub struct ClusterArgs {
     /// others; also how long a listening master waits with no worker.
     #[arg(long, value_name = "SECS", default_value_t = WORKER_TIMEOUT.as_secs_f64(), value_parser = positive_seconds)]
     pub worker_timeout: f64,
+}
+
+/// Parses a number from 0 to 1.
+///
+/// # Errors
+/// A message if the text is not such a number.
+pub fn fraction(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if (0.0..=1.0).contains(&v) => Ok(v),
+        _ => Err("expected a fraction from 0 to 1 (for example 0.05)".to_string()),
+    }
 }
 
 /// Parses a positive, finite number of seconds.
@@ -329,6 +347,7 @@ impl RenderArgs {
         let timeout = Duration::from_secs_f64(self.cluster.worker_timeout);
         MasterOptions {
             secret,
+            verify: self.cluster.verify,
             window: self.cluster.window,
             lines_per_request: self.cluster.lines_per_request,
             probe_interval: (timeout / 4).min(PROBE_INTERVAL),

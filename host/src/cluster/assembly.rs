@@ -13,8 +13,9 @@ pub(crate) struct Assembly {
     width: u32,
     /// `width × height` pixels, row-major, top row first.
     pixels: Vec<Pixel>,
-    /// Rays traced for the results used.
-    rays: RayCounts,
+    /// Rays traced for the result used of each task (first passes, then second passes), summed
+    /// at the end: a task put in again (its first result was wrong) replaces its rays.
+    rays: Vec<RayCounts>,
     adaptive: Option<Adaptive>,
 }
 
@@ -42,7 +43,7 @@ impl Assembly {
         Assembly {
             width: job.width,
             pixels: vec![Pixel::default(); job.width as usize * job.height as usize],
-            rays: RayCounts::default(),
+            rays: vec![RayCounts::default(); 2 * job.height as usize],
             adaptive: job.adaptive.map(|a| Adaptive {
                 job: a,
                 pass: SecondPass::new(a.threshold, job.width, job.height),
@@ -58,7 +59,7 @@ impl Assembly {
 
     /// Puts the first result of line `y`'s (first) pass in: its pixels and the `rays` it took.
     pub(crate) fn put_line(&mut self, y: u32, rays: RayCounts, pixels: &[Pixel]) -> Decided {
-        self.rays += rays;
+        self.rays[y as usize] = rays;
         self.line_mut(y).copy_from_slice(pixels);
         let Some(a) = &mut self.adaptive else {
             return Decided::Final;
@@ -76,10 +77,11 @@ impl Assembly {
     /// Merges the first result of line `y`'s second pass (which took `rays`); returns the rays
     /// of both passes.
     pub(crate) fn put_refined(&mut self, y: u32, rays: RayCounts, pixels: &[Pixel]) -> RayCounts {
-        self.rays += rays;
+        let w = self.width as usize;
+        let height = self.rays.len() / 2;
+        self.rays[height + y as usize] = rays;
         let mut all = self.first_rays(y);
         all += rays;
-        let w = self.width as usize;
         if let Some(a) = &self.adaptive {
             // A second pass is asked for only once its line is decided.
             let decision = a.pass.decision(y);
@@ -116,6 +118,10 @@ impl Assembly {
 
     /// The pixels and the rays of the results used.
     pub(crate) fn into_parts(self) -> (Vec<Pixel>, RayCounts) {
-        (self.pixels, self.rays)
+        let mut rays = RayCounts::default();
+        for r in self.rays {
+            rays += r;
+        }
+        (self.pixels, rays)
     }
 }

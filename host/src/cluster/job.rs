@@ -7,6 +7,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::Scene;
 use strahl_core::wire::scene_blob::SceneBlob;
 
 /// How the master schedules and when it gives up on a worker.
@@ -26,6 +27,10 @@ pub struct MasterOptions {
     pub wait_for_workers: Duration,
     /// The master's name in its `Hello`.
     pub name: String,
+    /// The share of tasks (0 to 1) rendered by a second worker and compared byte for byte
+    /// before use (`--verify`); 0: none. With adaptive multisampling every first pass is
+    /// checked once any is.
+    pub verify: f64,
     /// The shared secret workers must prove, and the master proves to them; `None`: workers
     /// without a secret only.
     pub secret: Option<Secret>,
@@ -51,6 +56,7 @@ impl Default for MasterOptions {
             wait_for_workers: WORKER_TIMEOUT,
             name: "strahl-master".to_string(),
             secret: None,
+            verify: 0.0,
         }
     }
 }
@@ -68,6 +74,9 @@ pub struct ClusterJob {
     pub height: u32,
     /// Adaptive multisampling's second pass, if the scene uses it.
     pub adaptive: Option<AdaptiveJob>,
+    /// The scene itself, where the master has it: with `--verify` it renders a line itself
+    /// when two workers' results differ, to tell which is wrong.
+    pub scene: Option<Arc<Scene>>,
 }
 
 /// How the master decides adaptive multisampling's second pass.

@@ -1,6 +1,7 @@
 //! The link threads, the master's I/O: for each worker a reader thread (frames in, decoded and
 //! checked, as [`Event`]s on one channel) and a writer thread (frames out, from a queue), so
-//! the master's loop never blocks on a slow or dead peer. [`Links`] owns the queues and is the
+//! the master's loop never blocks on a slow or dead peer. The events wait in a bounded queue
+//! ([`EVENT_QUEUE`]). [`Links`] owns the queues and is the
 //! [`Wire`] over which the [`session`](crate::cluster::session) talks.
 
 use crate::cluster::link::Link;
@@ -9,7 +10,7 @@ use embedded_io_adapters::std::FromStd;
 use std::collections::HashSet;
 use std::io::{Read, Write};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::mpsc::{self, Receiver, Sender};
+use std::sync::mpsc::{self, Receiver, Sender, SyncSender};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 use strahl_core::render::pixel::Pixel;
@@ -72,7 +73,7 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
 }
 
 /// The reader thread: frames from one worker become events until the link closes.
-fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &Sender<Event>) {
+fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &SyncSender<Event>) {
     let mut link = FromStd::new(reader);
     let mut frames = FrameReader::new(vec![
         0u8;
@@ -100,6 +101,12 @@ fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &Sende
         }
     }
 }
+
+/// Events the link threads may have waiting for the master loop at once. A reader that finds
+/// the queue full waits, and so reads no more from its link: a peer that sends faster than the
+/// master takes its frames (a flood of small bad frames, say) is slowed by its own connection
+/// instead of growing the master's memory.
+pub(crate) const EVENT_QUEUE: usize = 4096;
 
 /// A frame for the writer thread.
 #[derive(Debug)]
@@ -144,7 +151,7 @@ fn write_loop(
     mut writer: Box<dyn Write + Send>,
     frames: &Receiver<Outgoing>,
     outbox: &Outbox,
-    events: &Sender<Event>,
+    events: &SyncSender<Event>,
     ending: &Ending<'_>,
     done: &Sender<usize>,
 ) {
@@ -188,7 +195,7 @@ pub(crate) struct Links {
     ends: Vec<LinkEnd>,
     width: u32,
     frames: FrameWriter,
-    events_tx: Sender<Event>,
+    events_tx: SyncSender<Event>,
     /// Writer threads report here when they have sent everything and ended their link.
     writers_done_tx: Sender<usize>,
     writers_done: Receiver<usize>,
@@ -197,7 +204,7 @@ pub(crate) struct Links {
 impl Links {
     /// No links yet, for lines `width` pixels wide; the receiver gets every link's events.
     pub(crate) fn new(width: u32) -> (Links, Receiver<Event>) {
-        let (events_tx, events) = mpsc::channel();
+        let (events_tx, events) = mpsc::sync_channel(EVENT_QUEUE);
         let (writers_done_tx, writers_done) = mpsc::channel();
         let links = Links {
             ends: Vec::new(),

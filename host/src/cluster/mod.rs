@@ -33,6 +33,7 @@
 //! - [`model`]: a discrete-event model of the master and workers in virtual time, for
 //!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
+//! - `verify`: `--verify`'s bookkeeping: sampled tasks, held results, who delivered what.
 
 pub(crate) mod assembly;
 pub mod executor;
@@ -48,3 +49,4 @@ pub mod report;
 pub mod schedule;
 pub(crate) mod session;
 pub mod sim;
+pub(crate) mod verify;

@@ -62,6 +62,7 @@ impl PreparedScene {
             blob: Arc::clone(&self.blob),
             width: self.scene.settings.width,
             height: self.scene.settings.height,
+            scene: Some(Arc::clone(&self.scene)),
             adaptive: self
                 .scene
                 .settings

@@ -39,6 +39,8 @@ pub struct WorkerReport {
     pub reissued: u32,
     /// Frames that failed their CRC or checks, in either direction.
     pub frames_dropped: u32,
+    /// Its results that another worker's matched byte for byte (`--verify`).
+    pub verified: u32,
     /// Why the master stopped using it, if it did before the end.
     pub lost: Option<String>,
 }
@@ -60,6 +62,7 @@ impl WorkerReport {
             busy: Duration::ZERO,
             reissued: 0,
             frames_dropped: 0,
+            verified: 0,
             lost: None,
         }
     }
@@ -113,6 +116,19 @@ impl fmt::Display for WorkerTable<'_> {
                 w.reissued,
                 w.frames_dropped,
                 w.lost.as_deref().unwrap_or("ok"),
+            )?;
+        }
+        let checked: Vec<String> = self
+            .0
+            .iter()
+            .filter(|w| w.verified > 0)
+            .map(|w| format!("{} {}", w.name, w.verified))
+            .collect();
+        if !checked.is_empty() {
+            writeln!(
+                f,
+                "results confirmed by a second worker (--verify): {}",
+                checked.join(", ")
             )?;
         }
         Ok(())

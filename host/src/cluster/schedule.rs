@@ -110,9 +110,21 @@ impl LineScheduler {
 
     /// Takes the next waiting line, if any, for a worker.
     pub fn next_waiting(&mut self) -> Option<u32> {
-        while let Some(line) = self.waiting.pop_front() {
+        self.next_waiting_except(|_| false)
+    }
+
+    /// Takes the first waiting line that is not `excluded` for this worker (a line whose first
+    /// result it gave, waiting for another worker's to check it); the others keep their place.
+    pub fn next_waiting_except(&mut self, excluded: impl Fn(u32) -> bool) -> Option<u32> {
+        let mut i = 0;
+        while let Some(&line) = self.waiting.get(i) {
             // A line can be finished while waiting (a lost holder's result came in after all).
-            if !self.done[line as usize] {
+            if self.done[line as usize] {
+                self.waiting.remove(i);
+            } else if excluded(line) {
+                i += 1;
+            } else {
+                self.waiting.remove(i);
                 self.holders[line as usize] += 1;
                 return Some(line);
             }
@@ -162,17 +174,37 @@ impl LineScheduler {
     /// window; a worker with nothing outstanding when nothing waits gets a copy of a line in
     /// flight ([`LineScheduler::next_copy`]; it holds no line, so any copy is one it lacks).
     pub fn fill_window(&mut self, outstanding: usize, window: u32) -> Vec<u32> {
+        self.fill_window_except(outstanding, window, |_| false)
+    }
+
+    /// [`LineScheduler::fill_window`] for a worker that must not get the `excluded` lines.
+    pub fn fill_window_except(
+        &mut self,
+        outstanding: usize,
+        window: u32,
+        excluded: impl Fn(u32) -> bool,
+    ) -> Vec<u32> {
         let mut lines = Vec::new();
         while outstanding + lines.len() < window.max(1) as usize {
-            let Some(line) = self.next_waiting() else {
+            let Some(line) = self.next_waiting_except(&excluded) else {
                 break;
             };
             lines.push(line);
         }
         if outstanding == 0 && lines.is_empty() {
-            lines.extend(self.next_copy(|_| false));
+            lines.extend(self.next_copy(&excluded));
         }
         lines
+    }
+
+    /// Makes a finished line wait again, at the front (its result turned out to be wrong).
+    pub fn reopen(&mut self, line: u32) {
+        let i = line as usize;
+        if self.done.get(i).copied().unwrap_or(false) {
+            self.done[i] = false;
+            self.finished -= 1;
+            self.waiting.push_front(line);
+        }
     }
 
     /// A holder gives `line` up without a result. Returns `true` if the line went back to the
@@ -252,6 +284,22 @@ mod tests {
         // Nothing waits: only a worker with nothing outstanding gets a copy.
         assert_eq!(s.fill_window(1, 2), [0u32; 0]);
         assert_eq!(s.fill_window(0, 2), [0]);
+    }
+
+    #[test]
+    fn excluded_lines_wait_for_another_worker_and_reopened_ones_come_first() {
+        let mut s = LineScheduler::new(4);
+        assert_eq!(s.fill_window_except(0, 2, |l| l == 0), [1, 2]);
+        assert_eq!(s.fill_window_except(0, 1, |_| false), [0]);
+        assert!(s.complete(0, true));
+        assert!(s.is_done(0));
+        s.reopen(0);
+        assert!(!s.is_done(0));
+        assert_eq!(s.finished(), 0);
+        assert_eq!(s.next_waiting(), Some(0));
+        // A worker excluded from everything that waits gets no copy of it either.
+        assert_eq!(s.fill_window_except(0, 1, |l| l != 3), [3]);
+        assert_eq!(s.fill_window_except(0, 1, |_| true), [0u32; 0]);
     }
 
     #[test]

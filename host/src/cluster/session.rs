@@ -17,6 +17,7 @@ use crate::cluster::job::{ClusterError, ClusterImage, ClusterJob, MasterOptions}
 use crate::cluster::link::LinkKind;
 use crate::cluster::report::WorkerReport;
 use crate::cluster::schedule::{LineScheduler, Task};
+use crate::cluster::verify::{Held, Verifier};
 use crate::util::secret::random_nonce;
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -24,8 +25,11 @@ use std::time::{Duration, Instant};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::auth::{self, Nonce, Proof, Role};
-use strahl_core::wire::message::{Hello, MasterMessage, Refusal, Rejection};
+use strahl_core::wire::message::{
+    decode_pixels, Hello, MasterMessage, Refusal, Rejection, WorkerMessage,
+};
 use strahl_core::wire::{MAX_LINES_PER_REQUEST, PROTOCOL_VERSION, SCENE_WINDOW};
+use strahl_core::worker::{LineBuffers, LineRequest};
 
 /// Where the session sends its messages to workers.
 pub(crate) trait Wire {
@@ -195,6 +199,7 @@ pub(crate) struct Session<'a> {
     peers: Vec<Peer>,
     sched: LineScheduler,
     image: Assembly,
+    verify: Verifier,
     on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
     log: &'a (dyn Fn(&str) + Sync),
 }
@@ -218,6 +223,19 @@ impl<'a> Session<'a> {
             peers: Vec::new(),
             sched,
             image: Assembly::new(job),
+            // Verification needs the scene, to render a line itself when two workers differ.
+            verify: Verifier::new(
+                if job.scene.is_some() {
+                    opts.verify
+                } else {
+                    0.0
+                },
+                if job.adaptive.is_some() {
+                    job.height
+                } else {
+                    0
+                },
+            ),
             on_line,
             log,
         }
@@ -411,7 +429,7 @@ impl<'a> Session<'a> {
                 && (!refined || self.job.adaptive.is_some()) =>
             {
                 let task = Task::from_wire(line, refined);
-                self.take_line(id, task, rays, &pixels, now);
+                self.take_line(id, task, (rays, &pixels), now, wire);
             }
             Incoming::FenceAck { seq } => self.on_fence_ack(id, seq),
             Incoming::Dropped => {
@@ -551,9 +569,9 @@ impl<'a> Session<'a> {
         &mut self,
         id: usize,
         task: Task,
-        rays: RayCounts,
-        pixels: &[Pixel],
+        (rays, pixels): (RayCounts, &[Pixel]),
         now: Instant,
+        wire: &mut dyn Wire,
     ) {
         let peer = &mut self.peers[id];
         // Only answers to requests count; anything else is a peer's mistake, not a pixel.
@@ -571,13 +589,166 @@ impl<'a> Session<'a> {
         peer.last_result = Some(now);
         peer.idle = peer.requests.is_empty() && lost.is_empty();
         peer.report.rays += rays;
-        if self.sched.complete(task.index(self.job.height), true) {
+        let index = task.index(self.job.height);
+        if self.verify.sampled(index) && !self.sched.is_done(index) {
+            self.check_result(id, task, rays, pixels, wire);
+        } else if self.sched.complete(index, true) {
             self.peers[id].report.lines += 1;
+            self.verify.used_unchecked(index, id);
             self.use_result(task, rays, pixels);
         } else {
             self.peers[id].report.duplicates += 1;
         }
         self.release(id, &lost);
+    }
+
+    /// A sampled task's result from worker `id` (`--verify`): the first is held and the task
+    /// goes to another worker; the second must match it byte for byte. If they differ, the
+    /// master renders the task itself and convicts whoever differs from that.
+    fn check_result(
+        &mut self,
+        id: usize,
+        task: Task,
+        rays: RayCounts,
+        pixels: &[Pixel],
+        wire: &mut dyn Wire,
+    ) {
+        let index = task.index(self.job.height);
+        let first = match self.verify.held(index).map(|h| h.worker) {
+            None => {
+                let pixels = pixels.to_vec();
+                self.verify.hold(
+                    index,
+                    Held {
+                        worker: id,
+                        rays,
+                        pixels,
+                    },
+                );
+                self.sched.release(index);
+                return;
+            }
+            // Its own result again (a re-issued request): still no second opinion.
+            Some(w) if w == id => {
+                self.peers[id].report.duplicates += 1;
+                self.sched.release(index);
+                return;
+            }
+            Some(_) => self.verify.take(index),
+        };
+        let Some(first) = first else { return };
+        if first.matches(rays, pixels) {
+            self.peers[first.worker].report.verified += 1;
+            self.peers[id].report.verified += 1;
+            // The first result is used; the second, which confirmed it, is a copy.
+            self.peers[id].report.duplicates += 1;
+            self.finish_checked(first.worker, task, rays, pixels);
+            return;
+        }
+        let second = Held {
+            worker: id,
+            rays,
+            pixels: pixels.to_vec(),
+        };
+        self.settle(task, [Some(first), Some(second)], wire);
+    }
+
+    /// Decides task `task` from the master's own render: every held result that differs from
+    /// it convicts its worker; the master's result is used.
+    fn settle(&mut self, task: Task, results: [Option<Held>; 2], wire: &mut dyn Wire) {
+        let Some((rays, pixels)) = self.render_here(task) else {
+            return;
+        };
+        let mut credited = None;
+        for held in results.into_iter().flatten() {
+            if held.matches(rays, &pixels) {
+                self.peers[held.worker].report.verified += 1;
+                if credited.replace(held.worker).is_some() {
+                    self.peers[held.worker].report.duplicates += 1;
+                }
+            } else {
+                // A result not used: counted with the copies.
+                self.peers[held.worker].report.duplicates += 1;
+                self.convict(held.worker, task, wire);
+            }
+        }
+        match credited {
+            Some(w) => self.finish_checked(w, task, rays, &pixels),
+            None => {
+                // Nobody's result was right: the master's own is used.
+                if self.sched.complete(task.index(self.job.height), false) {
+                    self.use_result(task, rays, &pixels);
+                }
+            }
+        }
+    }
+
+    /// Uses a checked result of `task`, crediting worker `w` with it.
+    fn finish_checked(&mut self, w: usize, task: Task, rays: RayCounts, pixels: &[Pixel]) {
+        if self.sched.complete(task.index(self.job.height), true) {
+            self.peers[w].report.lines += 1;
+            self.use_result(task, rays, pixels);
+        }
+    }
+
+    /// Drops worker `w`, whose result for `task` was wrong, and renders again elsewhere the
+    /// tasks it delivered that were not checked.
+    fn convict(&mut self, w: usize, task: Task, wire: &mut dyn Wire) {
+        for index in self.verify.convict(w) {
+            self.sched.reopen(index);
+            let report = &mut self.peers[w].report;
+            // Its result for the task is no longer used: it becomes a copy, re-issued.
+            report.lines = report.lines.saturating_sub(1);
+            report.duplicates += 1;
+            report.reissued += 1;
+        }
+        let (what, y) = match task {
+            Task::Line(y) => ("line", y),
+            Task::Refine(y) => ("second pass of line", y),
+        };
+        let reason = format!(
+            "its pixels for the {what} {y} differ from another worker's and from the master's \
+             own render (--verify)"
+        );
+        self.lose(w, reason, wire);
+    }
+
+    /// Renders `task` on the master, as a worker would answer it; `None` without the scene.
+    fn render_here(&self, task: Task) -> Option<(RayCounts, Vec<Pixel>)> {
+        let scene = self.job.scene.as_ref()?;
+        let mask = match task {
+            Task::Line(_) => None,
+            Task::Refine(y) => Some(self.image.refine_mask(y)),
+        };
+        let (Task::Line(line) | Task::Refine(line)) = task;
+        let mut buffers = LineBuffers::new();
+        let request = LineRequest {
+            scene,
+            job: self.job.id,
+            line,
+            mask: mask.as_deref(),
+        };
+        match buffers.answer(request) {
+            Ok(WorkerMessage::LineResult { rays, pixels, .. }) => {
+                let mut out = vec![Pixel::default(); self.job.width as usize];
+                decode_pixels(pixels, &mut out).ok()?;
+                Some((rays, out))
+            }
+            _ => None,
+        }
+    }
+
+    /// Held results that no other worker is left to check are checked by the master itself.
+    fn settle_unchecked(&mut self, wire: &mut dyn Wire) {
+        for (index, holder) in self.verify.held_tasks() {
+            let others =
+                (0..self.peers.len()).any(|p| p != holder && self.peers[p].state != State::Gone);
+            // (A convicted worker's held results are gone already.)
+            if let (false, Some(held)) = (others, self.verify.take(index)) {
+                let task = Task::from_index(index, self.job.height);
+                self.settle(task, [Some(held), None], wire);
+            }
+        }
     }
 
     /// Puts the first result of `task` into the image; queues or finishes the second passes it
@@ -657,6 +828,7 @@ impl<'a> Session<'a> {
 
     /// Drops workers silent for the time-out, and probes those silent for a probe interval.
     pub(crate) fn check_timeouts(&mut self, now: Instant, wire: &mut dyn Wire) {
+        self.settle_unchecked(wire);
         for id in 0..self.peers.len() {
             let peer = &self.peers[id];
             // Only a worker the master waits on is timed out, and probed with what it last got.
@@ -713,9 +885,10 @@ impl<'a> Session<'a> {
                 continue;
             }
             let window = (outstanding + room * per_request as usize) as u32;
+            let verify = &self.verify;
             let tasks: Vec<Task> = self
                 .sched
-                .fill_window(outstanding, window)
+                .fill_window_except(outstanding, window, |t| verify.excluded(id, t))
                 .into_iter()
                 .map(|index| Task::from_index(index, self.job.height))
                 .collect();
@@ -902,6 +1075,7 @@ mod tests {
             width,
             height,
             adaptive,
+            scene: None,
         }
     }
 

@@ -2,8 +2,8 @@
 //!
 //! Each simulated worker is the real worker loop on a thread, behind an in-process pipe whose
 //! two directions follow a [`LinkModel`] (latency, bandwidth, bit flips). A [`Fault`] wraps the
-//! worker's end of the link: it can crash (the link closes), hang (stops answering), or run
-//! slower than the machine. Tests use it to run the real master against 64 and more workers,
+//! worker's end of the link: it can crash (the link closes), hang (stops answering), run
+//! slower than the machine, or send wrong pixels. Tests use it to run the real master against 64 and more workers,
 //! with failures, in seconds.
 
 use crate::cluster::link::Link;
@@ -13,7 +13,11 @@ use crate::util::sys::POLL_INTERVAL;
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use embedded_io_adapters::std::FromStd;
 use std::time::Instant;
-use strahl_core::worker::{serve, NodeInfo, SceneCache};
+use strahl_core::wire::frame::FrameWriter;
+use strahl_core::wire::message::WorkerMessage;
+use strahl_core::worker::{
+    serve, serve_with, LineBuffers, LineRequest, NodeInfo, Outbox, SceneCache, WorkerError,
+};
 
 /// What goes wrong with a simulated worker.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -28,6 +32,51 @@ pub enum Fault {
     HangAt(u32),
     /// The worker takes `factor` times as long per frame as the machine does.
     Slow(f64),
+    /// The worker speaks the protocol correctly but sends wrong pixels: the first channel of
+    /// the first pixel of every line result is off by one.
+    WrongPixels,
+}
+
+/// The outbox of a [`Fault::WrongPixels`] worker: renders like [`strahl_core::worker::Inline`],
+/// then changes one pixel.
+#[derive(Default)]
+struct Liar {
+    writer: FrameWriter,
+    buffers: LineBuffers,
+    pixels: Vec<u8>,
+}
+
+impl<L: Write> Outbox<L> for Liar {
+    fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
+        Ok(self.writer.send(link, msg)?)
+    }
+
+    fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError> {
+        let answer = self.buffers.answer(request)?;
+        let WorkerMessage::LineResult {
+            job,
+            line,
+            refined,
+            rays,
+            pixels,
+        } = answer
+        else {
+            return Ok(self.writer.send(link, &answer)?);
+        };
+        self.pixels.clear();
+        self.pixels.extend_from_slice(pixels);
+        if let Some(b) = self.pixels.first_mut() {
+            *b ^= 1;
+        }
+        let lie = WorkerMessage::LineResult {
+            job,
+            line,
+            refined,
+            rays,
+            pixels: &self.pixels,
+        };
+        Ok(self.writer.send(link, &lie)?)
+    }
 }
 
 /// One simulated worker.
@@ -106,7 +155,7 @@ impl FaultyLink {
                 std::thread::sleep(spent.mul_f64((factor - 1.0).max(0.0)));
                 Ok(())
             }
-            Fault::None | Fault::CrashAt(_) | Fault::HangAt(_) => Ok(()),
+            Fault::None | Fault::CrashAt(_) | Fault::HangAt(_) | Fault::WrongPixels => Ok(()),
         }
     }
 }
@@ -145,7 +194,11 @@ pub fn spawn_sim_worker(
                 last_read: Instant::now(),
             };
             // A crashed worker's link is closed by its fault; the master sees that.
-            let _ = serve(&mut link, &node, &mut cache);
+            let _ = if spec.fault == Fault::WrongPixels {
+                serve_with(&mut link, &mut Liar::default(), &node, &mut cache)
+            } else {
+                serve(&mut link, &node, &mut cache)
+            };
         })?;
     Ok(Link::from_pipe(format!("sim {index}"), master_end))
 }
