@@ -884,6 +884,8 @@ fn all_workers_lost_mid_render_is_an_error_and_writes_nothing() -> TestResult {
         "{error}"
     );
     assert_eq!(std::fs::read(&out)?, b"old", "the old image was touched");
-    assert_eq!(listing(dir.path())?, ["out.bmp"]);
+    // The finished lines are kept for --resume, and the error says how.
+    assert_eq!(listing(dir.path())?, ["out.bmp", "out.bmp.checkpoint"]);
+    assert!(error.contains("--resume"), "{error}");
     Ok(())
 }

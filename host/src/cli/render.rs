@@ -10,9 +10,11 @@
 
 use super::progress::Progress;
 use super::summary::{RenderStats, RenderSummary};
+use crate::cluster::checkpoint::{checkpoint_path, Checkpoint, Record};
 use crate::cluster::executor::{start_workers, WorkerSources};
+use crate::cluster::job::ClusterJob;
 use crate::cluster::job::{PROBE_INTERVAL, WINDOW, WORKER_TIMEOUT};
-use crate::cluster::master::{run_master, MasterOptions};
+use crate::cluster::master::{run_master_with, Hooks, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::formats::fs::write_atomically;
@@ -24,8 +26,12 @@ use clap::Args;
 use std::io::Write as _;
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
@@ -121,6 +127,12 @@ pub struct RenderArgs {
     /// Print nothing on stderr unless there is an error (no progress bar, no summary).
     #[arg(short, long)]
     pub quiet: bool,
+
+    /// Go on with an interrupted render of the same scene, settings and output: the lines in
+    /// OUTPUT.checkpoint are kept, only the others are rendered, and the image is the one an
+    /// uninterrupted render gives.
+    #[arg(long)]
+    pub resume: bool,
 
     /// Workers outside this process and how the master treats them.
     #[command(flatten)]
@@ -389,32 +401,65 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     };
     warn_about_scene(args, &loaded, &prepared, &warn);
-    let mut workers = start_workers(
+    let job = prepared.job();
+    let (checkpoint, done) = open_checkpoint(args.resume, &loaded.output, &job)?;
+    if !done.is_empty() && !args.quiet {
+        progress.println(&format!(
+            "resuming: {} results kept in {}",
+            done.len(),
+            checkpoint.path().display()
+        ));
+    }
+    let checkpoint = Mutex::new(Some(checkpoint));
+    let record = |task: u32, rays: RayCounts, pixels: &[Pixel]| {
+        record_result(&checkpoint, task, rays, pixels, &warn);
+    };
+    let workers = start_workers(
         &args.cluster.sources(secret.is_some()),
         args.worker_count(),
         &prepared,
         &warn,
-    )?;
+    );
+    let mut workers = match workers {
+        Ok(w) => w,
+        Err(e) => {
+            let c = checkpoint.into_inner().unwrap_or_else(|p| p.into_inner());
+            return Err(with_resume_hint(e, c));
+        }
+    };
     let render_start = Instant::now();
-    let image = run_master(
-        &prepared.job(),
+    let hooks = Hooks {
+        on_line: &|_, rays| progress.line_done(rays),
+        log: &warn,
+        on_result: Some(&record),
+        resume: &done,
+        stop: Some(stop_on_ctrl_c()),
+    };
+    let image = run_master_with(
+        &job,
         std::mem::take(&mut workers.links),
         workers.joins.as_ref(),
         &args.master_options(secret),
-        &|_, rays| progress.line_done(rays),
-        &warn,
+        &hooks,
     );
     let render = render_start.elapsed();
     progress.finish();
     drop(workers);
-    let image = image?;
-
+    let checkpoint = checkpoint.into_inner().unwrap_or_else(|e| e.into_inner());
+    let image = match image {
+        Ok(image) => image,
+        Err(e) => return Err(with_resume_hint(e.into(), checkpoint)),
+    };
     write_image(
         &loaded.output,
         settings.width,
         settings.height,
         &image.pixels,
     )?;
+    // (None: writing it failed, as was warned.)
+    if let Some(c) = checkpoint {
+        c.remove()?;
+    }
 
     let summary = RenderSummary {
         width: settings.width,
@@ -441,6 +486,89 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprint!("{}", WorkerTable(&image.workers));
     }
     Ok(())
+}
+
+/// The checkpoint of this render beside `output`: a new one, or with `resume` the one there
+/// and the results it kept.
+fn open_checkpoint(
+    resume: bool,
+    output: &Path,
+    job: &ClusterJob,
+) -> anyhow::Result<(Checkpoint, Vec<Record>)> {
+    let path = checkpoint_path(output);
+    if resume {
+        Checkpoint::resume(&path, job)
+    } else {
+        Ok((Checkpoint::create(&path, job)?, Vec::new()))
+    }
+}
+
+/// Appends a result to the checkpoint; if that fails, warns once and goes on without one.
+fn record_result(
+    checkpoint: &Mutex<Option<Checkpoint>>,
+    task: u32,
+    rays: RayCounts,
+    pixels: &[Pixel],
+    warn: &dyn Fn(&str),
+) {
+    let mut c = checkpoint.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(open) = c.as_mut() {
+        if let Err(e) = open.append(task, rays, pixels) {
+            warn(&format!("{e:#}; going on without a checkpoint"));
+            if let Some(broken) = c.take() {
+                // The file is incomplete: a resume from it would render the rest again anyway.
+                let _ = broken.remove();
+            }
+        }
+    }
+}
+
+/// The flag Ctrl-C sets, with its handler installed on first use (without a handler, Ctrl-C
+/// ends the process at once, and the checkpoint is kept all the same).
+fn stop_on_ctrl_c() -> &'static AtomicBool {
+    static STOP: AtomicBool = AtomicBool::new(false);
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        // Another handler already installed (a library user's): theirs decides.
+        let _ = ctrlc::set_handler(|| STOP.store(true, Ordering::Relaxed));
+    });
+    &STOP
+}
+
+/// A failed render's error, with how to go on where it stopped when a checkpoint kept results
+/// (one that kept none is removed).
+fn with_resume_hint(e: anyhow::Error, checkpoint: Option<Checkpoint>) -> anyhow::Error {
+    let Some(c) = checkpoint else {
+        return e;
+    };
+    if c.records() == 0 {
+        return match c.remove() {
+            Ok(()) => e,
+            Err(r) => e.context(format!("{r:#}")),
+        };
+    }
+    let mut command: Vec<String> = std::env::args().map(|a| shell_quote(&a)).collect();
+    if !command.iter().any(|a| a == "--resume") {
+        command.push("--resume".to_string());
+    }
+    e.context(format!(
+        "the lines finished are kept in {}; go on with: {}",
+        c.path().display(),
+        command.join(" ")
+    ))
+}
+
+/// `arg` quoted for a POSIX shell where it needs it.
+fn shell_quote(arg: &str) -> String {
+    let plain = !arg.is_empty()
+        && arg
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_./:=,+@%".contains(c));
+    if plain {
+        arg.to_string()
+    } else {
+        format!("'{}'", arg.replace('\'', "'\\''"))
+    }
 }
 
 /// The scene prepared for rendering (checked, octree built); an error names the configuration

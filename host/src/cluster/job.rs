@@ -112,6 +112,14 @@ pub enum ClusterError {
         /// Every worker, with why it was lost.
         workers: Vec<WorkerReport>,
     },
+    /// The render was stopped (Ctrl-C) before the image was complete.
+    #[error("interrupted: {finished} of {total} lines were finished, no image was written")]
+    Interrupted {
+        /// Lines finished.
+        finished: u32,
+        /// Lines in the image.
+        total: u32,
+    },
     /// A worker thread could not be started.
     #[error("cannot start a worker thread: {0}")]
     Spawn(#[from] std::io::Error),

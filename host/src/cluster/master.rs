@@ -7,11 +7,13 @@
 //! builds the image. At the end the master says `EndSession` to every worker left and waits a
 //! moment ([`END_SESSION_GRACE`]) for the links to close.
 
+use crate::cluster::checkpoint::Record;
 use crate::cluster::link::Link;
 use crate::cluster::link_threads::Links;
-use crate::cluster::session::{Event, Session, Wire};
+use crate::cluster::session::{Event, OnResult, Session, Wire};
 use crate::util::sys::POLL_INTERVAL;
 use std::collections::HashSet;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{Receiver, RecvTimeoutError, TryRecvError};
 use std::time::{Duration, Instant};
 use strahl_core::render::stats::RayCounts;
@@ -39,15 +41,59 @@ pub fn run_master(
     on_line: &(dyn Fn(u32, RayCounts) + Sync),
     log: &(dyn Fn(&str) + Sync),
 ) -> Result<ClusterImage, ClusterError> {
+    let hooks = Hooks {
+        on_line,
+        log,
+        on_result: None,
+        resume: &[],
+        stop: None,
+    };
+    run_master_with(job, links, joins, opts, &hooks)
+}
+
+/// What a render reports as it goes, what it resumes from, and when it stops early.
+pub struct Hooks<'a> {
+    /// Called with each line's final pixels' line number and rays.
+    pub on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
+    /// Called with a message for each worker lost.
+    pub log: &'a (dyn Fn(&str) + Sync),
+    /// Called with every result used (task number, rays, pixels): a checkpoint.
+    pub on_result: Option<OnResult<'a>>,
+    /// Results of an earlier run of the same job, taken first.
+    pub resume: &'a [Record],
+    /// Once set (Ctrl-C), the render ends with [`ClusterError::Interrupted`].
+    pub stop: Option<&'a AtomicBool>,
+}
+
+/// [`run_master`] with a checkpoint to write, results to resume from, and a stop flag.
+///
+/// # Errors
+/// As [`run_master`], and [`ClusterError::Interrupted`] once `hooks.stop` is set.
+pub fn run_master_with(
+    job: &ClusterJob,
+    links: Vec<Link>,
+    joins: Option<&Receiver<Link>>,
+    opts: &MasterOptions,
+    hooks: &Hooks<'_>,
+) -> Result<ClusterImage, ClusterError> {
     let (mut wire, events) = Links::new(job.width);
-    let mut session = Session::new(job, opts, on_line, log);
+    let mut session = Session::new(job, opts, hooks.on_line, hooks.log);
+    session.replay(hooks.resume);
+    if let Some(record) = hooks.on_result {
+        session.record_results(record);
+    }
     for link in links {
         add(&mut session, &mut wire, link);
     }
     let mut joins_open = joins.is_some();
     let mut alone_since = Instant::now();
     let mut last_check = Instant::now();
+    let mut stopped = false;
     while !session.is_complete() {
+        if hooks.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+            stopped = true;
+            break;
+        }
         if let Some(joins) = joins {
             joins_open = take_joins(&mut session, &mut wire, joins);
         }
@@ -72,7 +118,12 @@ pub fn run_master(
             break;
         }
     }
-    finish(session, wire, &events)
+    let (finished, total) = session.progress();
+    let image = finish(session, wire, &events);
+    if stopped {
+        return Err(ClusterError::Interrupted { finished, total });
+    }
+    image
 }
 
 /// Starts the link threads of `link` and adds its worker to the session.

@@ -13,6 +13,7 @@
 //! back to the front of the queue.
 
 use crate::cluster::assembly::{Assembly, Decided};
+use crate::cluster::checkpoint::Record;
 use crate::cluster::job::{ClusterError, ClusterImage, ClusterJob, MasterOptions};
 use crate::cluster::link::LinkKind;
 use crate::cluster::report::WorkerReport;
@@ -202,7 +203,12 @@ pub(crate) struct Session<'a> {
     verify: Verifier,
     on_line: &'a (dyn Fn(u32, RayCounts) + Sync),
     log: &'a (dyn Fn(&str) + Sync),
+    /// Told each result used (task number, rays, pixels): the checkpoint.
+    on_result: Option<OnResult<'a>>,
 }
+
+/// Where each result used goes (task number, rays, pixels).
+pub type OnResult<'a> = &'a (dyn Fn(u32, RayCounts, &[Pixel]) + Sync);
 
 impl<'a> Session<'a> {
     /// A session for `job` with no worker yet; `on_line(y, rays)` is called for each line's
@@ -238,6 +244,25 @@ impl<'a> Session<'a> {
             ),
             on_line,
             log,
+            on_result: None,
+        }
+    }
+
+    /// Tells `on_result` about every result used from now on.
+    pub(crate) fn record_results(&mut self, on_result: OnResult<'a>) {
+        self.on_result = Some(on_result);
+    }
+
+    /// Takes the results of an earlier run of the same job (a checkpoint) as if they had just
+    /// arrived, in their order; a task recorded twice takes its later result, except a first
+    /// pass with adaptive multisampling, whose first result decided its neighbours.
+    pub(crate) fn replay(&mut self, records: &[Record]) {
+        for r in records {
+            let task = Task::from_index(r.task, self.job.height);
+            let decided = self.job.adaptive.is_some() && matches!(task, Task::Line(_));
+            if self.sched.complete(r.task, false) || !decided {
+                self.apply_result(task, r.rays, &r.pixels);
+            }
         }
     }
 
@@ -754,6 +779,14 @@ impl<'a> Session<'a> {
     /// Puts the first result of `task` into the image; queues or finishes the second passes it
     /// decides.
     fn use_result(&mut self, task: Task, rays: RayCounts, pixels: &[Pixel]) {
+        if let Some(record) = self.on_result {
+            record(task.index(self.job.height), rays, pixels);
+        }
+        self.apply_result(task, rays, pixels);
+    }
+
+    /// [`Session::use_result`] without telling the checkpoint.
+    fn apply_result(&mut self, task: Task, rays: RayCounts, pixels: &[Pixel]) {
         let h = self.job.height;
         match task {
             Task::Line(y) => match self.image.put_line(y, rays, pixels) {
@@ -957,6 +990,11 @@ impl<'a> Session<'a> {
             ),
             _ => debug_assert!(false, "a request of {tasks:?}"),
         }
+    }
+
+    /// Lines whose final pixels are in, and lines in the image.
+    pub(crate) fn progress(&self) -> (u32, u32) {
+        (self.lines_finished(), self.job.height)
     }
 
     /// Lines whose final pixels are in.
