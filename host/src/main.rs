@@ -3,6 +3,7 @@
 use clap::Parser as _;
 use std::process::ExitCode;
 use strahl_host::cli::{run, Cli};
+use strahl_host::util::text::printable;
 
 /// The error and its causes, joined by `: `, leaving out a cause whose text the message already
 /// ends with (some errors repeat their source in their own message).
@@ -36,7 +37,7 @@ fn main() -> ExitCode {
         // The reader of our output went away (`strahl bench | head`): nothing left to say.
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {}", error_chain(&err));
+            eprintln!("error: {}", printable(&error_chain(&err)));
             ExitCode::FAILURE
         }
     }

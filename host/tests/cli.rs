@@ -402,3 +402,58 @@ fn summary_names_size_rays_and_output() -> TestResult {
     );
     Ok(())
 }
+
+/// An NFF scene whose tenth line is a record with a bad last word, `word`, with line ends
+/// `end`.
+fn nff_with_bad_word(end: &str, word: &str) -> String {
+    let lines = [
+        "v",
+        "from 0 0 5",
+        "at 0 0 0",
+        "up 0 1 0",
+        "angle 40",
+        "hither 1",
+        "resolution 8 8",
+        "b 0 0 0",
+        "l 1 1 1",
+    ];
+    let mut text = lines.join(end);
+    text.push_str(end);
+    text.push_str(&format!("f 1 0 0 1 0 0 0 {word}{end}"));
+    text
+}
+
+#[test]
+fn old_mac_line_ends_count_as_lines() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(dir.path().join("cr.nff"), nff_with_bad_word("\r", "x"))?;
+    let out = strahl(dir.path(), &["render", "cr.nff", "-o", "cr.bmp", "-q"])?;
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("cr.nff:10:"), "{}", stderr(&out));
+    Ok(())
+}
+
+#[test]
+fn error_messages_escape_control_bytes_and_shorten_long_words() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(
+        dir.path().join("esc.nff"),
+        nff_with_bad_word("\n", "1\u{1b}[31mRED"),
+    )?;
+    let out = strahl(dir.path(), &["render", "esc.nff", "-o", "e.bmp", "-q"])?;
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(!err.contains('\u{1b}'), "a raw escape byte: {err:?}");
+    assert!(err.contains("\\u{1b}[31mRED"), "{err}");
+    let long = "7".repeat(1 << 20) + "x";
+    std::fs::write(dir.path().join("long.nff"), nff_with_bad_word("\n", &long))?;
+    let out = strahl(dir.path(), &["render", "long.nff", "-o", "l.bmp", "-q"])?;
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).len() < 400,
+        "{} bytes of error",
+        stderr(&out).len()
+    );
+    assert!(stderr(&out).contains("more characters"), "{}", stderr(&out));
+    Ok(())
+}

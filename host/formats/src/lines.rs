@@ -2,7 +2,7 @@
 //! file"): lines of words, `REM` comments, `QUIT`, and numbers with messages that name the line.
 //!
 //! The rules, as `scenes/FORMATS.md` states them: the text is UTF-8 with an optional byte order
-//! mark; lines end in LF or CRLF; words are separated by any mix of spaces and tabs; blank lines
+//! mark; lines end in LF, CRLF or a lone CR (old Mac files, read as line ends); words are separated by any mix of spaces and tabs; blank lines
 //! are skipped; a line whose first word is `REM` is a comment; a line whose first word is `QUIT`
 //! ends the file (nothing after it is read, not even the rest of that line). Names are
 //! case-sensitive.
@@ -10,7 +10,8 @@
 use crate::error::LoadError;
 use std::path::Path;
 
-/// Reads `path` as UTF-8 text.
+/// Reads `path` as UTF-8 text, with lone CR line ends (old Mac files) turned into LF so lines
+/// count as they look.
 ///
 /// # Errors
 /// [`LoadError::Io`] if the file cannot be read, [`LoadError::At`] naming the line of the first
@@ -20,7 +21,7 @@ pub fn read_text(path: &Path) -> Result<String, LoadError> {
         path: path.to_path_buf(),
         source,
     })?;
-    String::from_utf8(bytes).map_err(|e| {
+    let text = String::from_utf8(bytes).map_err(|e| {
         let good = e.utf8_error().valid_up_to();
         let bytes = e.as_bytes();
         let line = 1 + bytes[..good].iter().filter(|&&b| b == b'\n').count();
@@ -29,6 +30,11 @@ pub fn read_text(path: &Path) -> Result<String, LoadError> {
             line,
             message: format!("the file is not UTF-8 text (bad byte at offset {good})"),
         }
+    })?;
+    Ok(if text.contains('\r') {
+        text.replace("\r\n", "\n").replace('\r', "\n")
+    } else {
+        text
     })
 }
 
