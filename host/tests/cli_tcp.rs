@@ -771,6 +771,35 @@ fn launch_starts_a_worker_per_hosts_file_line() -> TestResult {
 }
 
 #[test]
+fn launch_never_runs_a_hosts_file_entry_as_a_command() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let hosts = dir.path().join("hosts");
+    std::fs::write(&hosts, "127.0.0.1\nx;touch${IFS}pwned;echo\n")?;
+    let out = dir.path().join("out.bmp");
+    let r = render(
+        SMALL,
+        &out,
+        &[
+            "--workers",
+            "0",
+            "--hosts",
+            &hosts.display().to_string(),
+            "--launch",
+            "echo {host} {master}",
+        ],
+    )?;
+    assert!(!r.status.success());
+    assert!(
+        r.stderr.contains("hosts:2:"),
+        "names the line:\n{}",
+        r.stderr
+    );
+    assert!(!dir.path().join("pwned").exists());
+    assert!(!Path::new("pwned").exists());
+    Ok(())
+}
+
+#[test]
 fn hosts_file_names_listening_workers() -> TestResult {
     let (_a, a) = Proc::listening_worker("listed-a")?;
     let (_b, b) = Proc::listening_worker("listed-b")?;

@@ -56,6 +56,13 @@ pub fn parse_hosts(text: &str, path: &Path) -> Result<Vec<HostEntry>, LoadError>
             Some((h, _)) => h.trim_start_matches('[').trim_end_matches(']').to_string(),
             None => endpoint.clone(),
         };
+        // A host goes into launch commands: only what host names and addresses are made of.
+        if let Some(c) = host.chars().find(|&c| !is_host_char(c)) {
+            return Err(at(format!(
+                "`{host}` is not a host name or address (`{}` is not allowed in one)",
+                c.escape_default()
+            )));
+        }
         hosts.push(HostEntry {
             endpoint,
             host,
@@ -65,9 +72,29 @@ pub fn parse_hosts(text: &str, path: &Path) -> Result<Vec<HostEntry>, LoadError>
     Ok(hosts)
 }
 
+/// Letters, digits, `.`, `-`, `_` and, in IPv6 addresses, `:` and `%` (a zone).
+fn is_host_char(c: char) -> bool {
+    c.is_ascii_alphanumeric() || matches!(c, '.' | '-' | '_' | ':' | '%')
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn entries_that_are_not_host_names_are_refused() {
+        for bad in ["x;touch${IFS}pwned;echo", "a$(id)", "h`x`", "n\\1", "h'q"] {
+            let err = parse_hosts(&format!("ok\n{bad}\n"), Path::new("h.txt"));
+            let Err(LoadError::At { line, message, .. }) = err else {
+                panic!("{bad}: {err:?}");
+            };
+            assert_eq!(line, 2, "{bad}");
+            assert!(
+                message.contains("host name") || message.contains("host:port"),
+                "{message}"
+            );
+        }
+    }
 
     #[test]
     fn parses_hosts_with_comments_and_ports() -> Result<(), LoadError> {

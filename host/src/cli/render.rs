@@ -238,9 +238,10 @@ pub struct ClusterArgs {
     #[arg(long, value_name = "HOST[:PORT]")]
     pub listen: Option<String>,
 
-    /// Start one worker per hosts-file line with this shell command; `{host}` is replaced by the
+    /// Start one worker per hosts-file line with this command; `{host}` is replaced by the
     /// host, `{master}` by the address workers dial (e.g. `ssh {host} strahl worker --connect
-    /// {master}`). Listens on --listen, or on a free port of all interfaces.
+    /// {master}`). Listens on --listen, or on a free port (of this machine only without a
+    /// secret). The template is split into words (quotes keep spaces) and run without a shell.
     #[arg(long, value_name = "TEMPLATE", requires = "hosts")]
     pub launch: Option<String>,
 

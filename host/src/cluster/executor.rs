@@ -238,23 +238,84 @@ fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> 
 
 /// Starts the launch command for one host.
 fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<LaunchedWorker> {
-    let command = template
-        .replace("{host}", &host.host)
-        .replace("{master}", master);
-    let mut shell = Command::new("sh");
-    shell
-        .arg("-c")
-        .arg(&command)
+    // No shell: the template is split into words first and `{host}` and `{master}` are put
+    // into them, so a value can never become a second command.
+    let words = split_template(template)?;
+    let args: Vec<String> = words
+        .iter()
+        .map(|w| w.replace("{host}", &host.host).replace("{master}", master))
+        .collect();
+    let (program, rest) = args
+        .split_first()
+        .ok_or_else(|| anyhow!("--launch: the template is empty"))?;
+    let mut command = Command::new(program);
+    command
+        .args(rest)
         .stdin(Stdio::null())
         .stdout(Stdio::null());
     // Its own process group, so stopping it stops what it started too.
     #[cfg(unix)]
-    std::os::unix::process::CommandExt::process_group(&mut shell, 0);
-    let child = shell
+    std::os::unix::process::CommandExt::process_group(&mut command, 0);
+    let child = command
         .spawn()
-        .with_context(|| format!("cannot start `{command}` for host {}", host.host))?;
+        .with_context(|| format!("cannot start `{}` for host {}", args.join(" "), host.host))?;
     Ok(LaunchedWorker {
         host: host.host.clone(),
         child,
     })
+}
+
+/// A launch template's words: split at spaces, with `'...'` and `"..."` keeping spaces in one
+/// word (no other shell syntax: no variables, no `;`, no pipes).
+///
+/// # Errors
+/// An unclosed quote.
+fn split_template(template: &str) -> anyhow::Result<Vec<String>> {
+    let mut words = Vec::new();
+    let mut word: Option<String> = None;
+    let mut quote: Option<char> = None;
+    for c in template.chars() {
+        match (quote, c) {
+            (Some(q), c) if c == q => quote = None,
+            (Some(_), c) => word.get_or_insert_with(String::new).push(c),
+            (None, '\'' | '"') => {
+                quote = Some(c);
+                word.get_or_insert_with(String::new);
+            }
+            (None, c) if c.is_whitespace() => words.extend(word.take()),
+            (None, c) => word.get_or_insert_with(String::new).push(c),
+        }
+    }
+    if quote.is_some() {
+        bail!("--launch: a quote is not closed in `{template}`");
+    }
+    words.extend(word);
+    Ok(words)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::split_template;
+
+    #[test]
+    fn templates_split_into_words_without_a_shell() {
+        let words =
+            split_template("ssh -o 'Batch Mode=yes' {host} strahl worker --connect \"{master}\"")
+                .expect("a template");
+        assert_eq!(
+            words,
+            [
+                "ssh",
+                "-o",
+                "Batch Mode=yes",
+                "{host}",
+                "strahl",
+                "worker",
+                "--connect",
+                "{master}"
+            ]
+        );
+        assert!(split_template("ssh 'x").is_err());
+        assert_eq!(split_template("a ''").expect("empty word"), ["a", ""]);
+    }
 }
