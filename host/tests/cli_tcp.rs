@@ -800,6 +800,33 @@ fn launch_never_runs_a_hosts_file_entry_as_a_command() -> TestResult {
 }
 
 #[test]
+fn silent_connections_do_not_keep_a_worker_from_its_master() -> TestResult {
+    // Three connections that never say anything are open when the master comes: the worker
+    // serves the master all the same (before, it served connections one at a time and waited
+    // on the first for ever).
+    let (w, a) = Proc::listening_worker("besieged")?;
+    let silent: Vec<TcpStream> = (0..3)
+        .map(|_| TcpStream::connect(&a))
+        .collect::<Result<_, _>>()?;
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let r = render(
+        SMALL,
+        &out,
+        &["--workers", "0", "--worker", &a, "--worker-timeout", "5"],
+    )?;
+    r.assert_success();
+    assert_reference_image(&out, SMALL)?;
+    assert_ok(&r, "besieged")?;
+    drop(silent);
+    let (closed, text) = w.wait_stderr(Duration::from_secs(20), |t| {
+        t.contains("the peer closed before it said anything")
+    });
+    assert!(closed, "the silent connections are reported:\n{text}");
+    Ok(())
+}
+
+#[test]
 fn hosts_file_names_listening_workers() -> TestResult {
     let (_a, a) = Proc::listening_worker("listed-a")?;
     let (_b, b) = Proc::listening_worker("listed-b")?;

@@ -5,14 +5,18 @@
 //! node's threads ([`threads`]). Frames are small and latency-bound, so every stream has
 //! Nagle's algorithm off.
 //!
-//! Workers either listen ([`serve_listener`]: one master at a time, then the next) or dial a
+//! Workers either listen ([`serve_listener`]: one session at a time, with limits on who may
+//! hold a connection, [`listener`]) or dial a
 //! master that listens ([`dial`]), which suits batch schedulers and NAT.
 #![forbid(unsafe_code)]
 
+pub mod listener;
 pub mod threads;
 
+pub use listener::serve_listener;
+
 use std::io::{self, BufReader};
-use std::net::{Shutdown, TcpListener, TcpStream, ToSocketAddrs};
+use std::net::{Shutdown, TcpStream, ToSocketAddrs};
 use std::time::{Duration, Instant};
 use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 
@@ -117,8 +121,9 @@ pub fn serve_stream(
 ) -> Result<SessionEnd, SessionError> {
     let setup = || -> io::Result<_> {
         stream.set_nodelay(true)?;
+        stream.set_read_timeout(Some(listener::IDLE_TIMEOUT))?;
         Ok((
-            BufReader::with_capacity(1 << 16, stream.try_clone()?),
+            BufReader::with_capacity(1 << 16, Silence(stream.try_clone()?)),
             stream.try_clone()?,
         ))
     };
@@ -131,6 +136,23 @@ pub fn serve_stream(
         .map_err(SessionError::Worker)
 }
 
+/// A stream whose read time-out ends the session: the worker loop waits through time-outs
+/// (a serial port says nothing for long), so a TCP master silent for
+/// [`listener::IDLE_TIMEOUT`] is reported as gone instead.
+struct Silence(TcpStream);
+
+impl io::Read for Silence {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        self.0.read(buf).map_err(|e| match e.kind() {
+            io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut => io::Error::new(
+                io::ErrorKind::ConnectionAborted,
+                "the master sent nothing for the idle time-out",
+            ),
+            _ => e,
+        })
+    }
+}
+
 /// Why a TCP session ended abnormally.
 #[derive(Debug)]
 pub enum SessionError {
@@ -138,29 +160,6 @@ pub enum SessionError {
     Setup(io::Error),
     /// The session failed.
     Worker(WorkerError),
-}
-
-/// Accepts masters on `listener` one at a time and serves each until it ends the session or
-/// disconnects; then the next. `report` is told about each session (the peer, how it ended).
-/// Returns after `sessions` sessions if given, never otherwise.
-///
-/// # Errors
-/// If accepting fails.
-pub fn serve_listener(
-    listener: &TcpListener,
-    node: &NodeInfo<'_>,
-    cache: &mut SceneCache,
-    sessions: Option<u32>,
-    report: &mut dyn FnMut(String, Result<SessionEnd, SessionError>),
-) -> io::Result<()> {
-    let mut served = 0;
-    while sessions.is_none_or(|n| served < n) {
-        let (stream, peer) = listener.accept()?;
-        let outcome = serve_stream(stream, node, cache);
-        report(peer.to_string(), outcome);
-        served += 1;
-    }
-    Ok(())
 }
 
 /// Dials a listening master, retrying for up to `patience` while it is not up yet, and serves

@@ -204,7 +204,15 @@ pub fn start_workers(
     Ok(w)
 }
 
-/// Listens at `endpoint` and sends a link for each worker that connects, until dropped.
+/// The most workers that may dial in to one render; later connections are closed at once (each
+/// joined worker costs the master two threads).
+pub const MAX_JOINED: usize = 256;
+
+/// The shortest time between two accepted connections: at most 500 a second.
+const ACCEPT_PACE: Duration = Duration::from_millis(2);
+
+/// Listens at `endpoint` and sends a link for each worker that connects, until dropped; at most
+/// [`MAX_JOINED`] of them, at most one per [`ACCEPT_PACE`].
 fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> {
     let listener =
         TcpListener::bind(endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
@@ -216,9 +224,15 @@ fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> 
     std::thread::Builder::new()
         .name("strahl-accept".to_string())
         .spawn(move || {
+            let mut joined = 0;
             while !flag.load(Ordering::Relaxed) {
                 match listener.accept() {
+                    Ok((stream, _)) if joined >= MAX_JOINED => {
+                        let _ = stream.shutdown(std::net::Shutdown::Both);
+                    }
                     Ok((stream, peer)) => {
+                        joined += 1;
+                        std::thread::sleep(ACCEPT_PACE);
                         let link = stream
                             .set_nonblocking(false)
                             .and_then(|()| Link::from_tcp(peer.to_string(), stream));
