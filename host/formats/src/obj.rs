@@ -97,9 +97,17 @@ pub struct ObjFile {
 /// normal, a face with fewer than three corners or with normals at some corners only), and
 /// [`LoadError::File`] for a file without faces.
 pub fn read_obj(path: &Path) -> Result<ObjMesh, LoadError> {
-    let text = read_bytes(path)?;
+    parse_obj(path, &read_bytes(path)?)
+}
+
+/// Parses the bytes of an OBJ file read from `path` (which names it in errors), without its
+/// materials.
+///
+/// # Errors
+/// As [`read_obj`], but for reading the file.
+pub fn parse_obj(path: &Path, bytes: &[u8]) -> Result<ObjMesh, LoadError> {
     let mut reader = Reader::new(path, false);
-    reader.parse(&text)?;
+    reader.parse(bytes)?;
     Ok(reader.finish()?.mesh)
 }
 

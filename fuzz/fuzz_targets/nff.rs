@@ -1,0 +1,7 @@
+//! `cargo +nightly fuzz run nff`: see `tests/tests/fuzz_entry/mod.rs` for what it feeds.
+#![no_main]
+
+#[path = "../../tests/tests/fuzz_entry/mod.rs"]
+mod fuzz_entry;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| fuzz_entry::nff(data));
