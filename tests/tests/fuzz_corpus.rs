@@ -29,7 +29,13 @@ fn seeds() -> Vec<Vec<u8>> {
     .collect();
     // The first lines of the room's data file (all of it is slow to parse a thousand times).
     let room = std::fs::read_to_string(root.join("scenes/room/ROOM.txt")).unwrap_or_default();
-    seeds.push(room.lines().take(60).collect::<Vec<_>>().join("\n").into_bytes());
+    seeds.push(
+        room.lines()
+            .take(60)
+            .collect::<Vec<_>>()
+            .join("\n")
+            .into_bytes(),
+    );
     seeds.push(
         b"v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\nb 0 0 0\n\
           l 1 1 1\nf 1 0 0 .5 .5 3 0 1\ns 0 0 0 1\np 3 0 0 0 1 0 0 0 1 0\nc 0 0 0 1 0 1 0 .5\n"

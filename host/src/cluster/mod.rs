@@ -33,12 +33,15 @@
 //! - [`model`]: a discrete-event model of the master and workers in virtual time, for
 //!   clusters larger than this machine.
 //! - [`report`]: what each worker did.
+//! - [`faults`]: seeded faults (drop, duplicate, corrupt, split, delay, disconnect) over any
+//!   link, for tests.
 //! - [`checkpoint`]: the results used so far, in a file beside the output, for `--resume`.
 //! - `verify`: `--verify`'s bookkeeping: sampled tasks, held results, who delivered what.
 
 pub(crate) mod assembly;
 pub mod checkpoint;
 pub mod executor;
+pub mod faults;
 pub mod job;
 pub mod link;
 pub(crate) mod link_threads;
