@@ -14,8 +14,11 @@ use strahl_core::wire::scene_blob::{decode_bundle, memory_estimate};
 use strahl_core::wire::{MAX_FRAME_LEN, MAX_MASTER_FRAME_LEN};
 use strahl_core::worker::{serve, NodeInfo, SceneCache};
 
+/// An entry point.
+pub type Target = fn(&[u8]);
+
 /// Every entry point by name, for the corpus test.
-pub const TARGETS: [(&str, fn(&[u8])); 7] = [
+pub const TARGETS: [(&str, Target); 7] = [
     ("frames", frames),
     ("worker_session", worker_session),
     ("scene_bundle", scene_bundle),
