@@ -81,6 +81,12 @@ pub fn check_output_path(path: &Path) -> anyhow::Result<ImageKind> {
     Ok(kind)
 }
 
+/// Bytes a `width × height` render holds at its peak: the 16-bit pixels the master assembles
+/// and the 8-bit copy the image file is written from.
+pub fn image_memory(width: u32, height: u32) -> u64 {
+    u64::from(width) * u64::from(height) * (6 + 3)
+}
+
 /// The 8-bit RGB image of `pixels` (row-major, top row first).
 ///
 /// # Errors
@@ -93,7 +99,11 @@ pub fn to_rgb_image(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result
             pixels.len()
         );
     }
-    let raw: Vec<u8> = pixels.iter().flat_map(|p| p.to_rgb8()).collect();
+    // Sized once: a large image must not pass through a growing buffer's copies.
+    let mut raw: Vec<u8> = Vec::with_capacity(expected * 3);
+    for p in pixels {
+        raw.extend_from_slice(&p.to_rgb8());
+    }
     // The length was checked above, so `from_raw` cannot refuse the buffer.
     image::RgbImage::from_raw(width, height, raw)
         .context("cannot write the image: its pixel buffer does not match its size")

@@ -634,3 +634,21 @@ fn formats_md_nff_examples_load_and_render() {
         assert!(lit > 0, "{name} renders only background:\n{block}");
     }
 }
+
+#[test]
+fn more_solids_than_the_limit_is_an_error_at_the_line_that_passes_it() {
+    use strahl_formats::limits::MAX_SHAPES;
+    let mut text = String::from("v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\n");
+    text.push_str("resolution 8 8\nb 0 0 0\nl 1 1 1\nf 1 0 0 1 0 0 0 1\n");
+    for _ in 0..=MAX_SHAPES {
+        text.push_str("s 0 0 0 1\n");
+    }
+    let err = strahl_formats::nff::parse_nff(std::path::Path::new("many.nff"), &text)
+        .expect_err("one sphere too many");
+    let line = 10 + MAX_SHAPES + 1;
+    assert!(
+        err.to_string()
+            .starts_with(&format!("many.nff:{line}: more than {MAX_SHAPES}")),
+        "{err}"
+    );
+}

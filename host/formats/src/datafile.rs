@@ -7,6 +7,7 @@
 //! module reads.
 
 use crate::error::LoadError;
+use crate::limits::MAX_TRIANGLES;
 use crate::lines::{lines, read_text, Line};
 use glam::Vec3;
 use std::fmt::Write as _;
@@ -77,6 +78,9 @@ pub fn parse_data(path: &Path, text: &str, index_base: u32) -> Result<SceneData,
             "_LIGHT" => data.lights.push(light(&line)?),
             "_PT" => data.points.push(Vec3::from_array(line.numbers::<3>()?)),
             "_TR" => {
+                if data.triangles.len() as u64 >= MAX_TRIANGLES {
+                    return Err(line.error(format!("more than {MAX_TRIANGLES} triangles")));
+                }
                 data.triangles.push(triangle(&line, index_base)?);
                 triangle_lines.push(line.number);
             }

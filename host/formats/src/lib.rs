@@ -29,6 +29,7 @@ pub mod error;
 pub mod fart;
 pub mod fs;
 pub mod hosts;
+pub mod limits;
 pub mod lines;
 pub mod load;
 pub mod mesh;

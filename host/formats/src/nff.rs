@@ -38,6 +38,7 @@
 //! `path: what is wrong` for a problem of the whole file (no `v` block, no light).
 
 use crate::error::LoadError;
+use crate::limits::{MAX_SHAPES, MAX_TRIANGLES};
 use crate::lines::read_text;
 use glam::{Mat3, Quat, Vec3};
 use std::fmt;
@@ -623,6 +624,12 @@ impl<'a> Parser<'a> {
     }
 
     fn add_solid(&mut self, line: usize, node: SolidNode) -> Result<(), LoadError> {
+        if self.desc.solids.len() as u64 >= MAX_SHAPES {
+            return Err(self.error(
+                line,
+                format!("more than {MAX_SHAPES} spheres, cones and other solids"),
+            ));
+        }
         let index = u32::try_from(self.desc.solids.len())
             .map_err(|_| self.error(line, "too many primitives"))?;
         self.desc.solids.push(node);
@@ -728,6 +735,12 @@ impl<'a> Parser<'a> {
                 format!("`{}`: too many vertices", keyword.text),
             ));
         };
+        if self.desc.triangles.len() as u64 + u64::from(n) > MAX_TRIANGLES {
+            return Err(self.error(
+                keyword.line,
+                format!("more than {MAX_TRIANGLES} triangles (polygons count n − 2 each)"),
+            ));
+        }
         self.fan(n, p0, with_normals.then_some(n0), shader);
         Ok(())
     }

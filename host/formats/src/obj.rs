@@ -29,6 +29,7 @@
 //! small enough to read here with exact messages.
 
 use crate::error::LoadError;
+use crate::limits::MAX_TRIANGLES;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -335,7 +336,11 @@ impl<'p> Reader<'p> {
     ) -> Result<(), LoadError> {
         let mut corners = std::mem::take(&mut self.corners);
         corners.clear();
-        let result = self.face_corners(line, words, &mut corners);
+        let mut result = self.face_corners(line, words, &mut corners);
+        let total = self.file.mesh.triangles.len() + corners.len().saturating_sub(2);
+        if result.is_ok() && total as u64 > MAX_TRIANGLES {
+            result = Err(self.at(line, format!("more than {MAX_TRIANGLES} triangles")));
+        }
         if let (Ok(()), Some((first, rest))) = (&result, corners.split_first()) {
             for pair in rest.windows(2) {
                 let (a, b) = (pair[0], pair[1]);

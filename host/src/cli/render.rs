@@ -19,7 +19,7 @@ use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::formats::fs::write_atomically;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
-use crate::output::{check_output_path, write_image};
+use crate::output::{check_output_path, image_memory, write_image};
 use crate::util::secret::{load_secret, Secret};
 use anyhow::anyhow;
 use clap::Args;
@@ -385,6 +385,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Fail before the long part if the image or the statistics cannot be written.
     check_output_path(&loaded.output)?;
     let secret = load_secret(args.cluster.secret_file.as_deref())?;
+    check_image_memory(&loaded, crate::util::sys::available_memory())?;
     if let Some(stats) = &args.stats_json {
         check_stats_path(stats)?;
     }
@@ -487,6 +488,25 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprint!("{}", WorkerTable(&image.workers));
     }
     Ok(())
+}
+
+/// Refuses, before anything is built, an image whose pixels cannot fit in the memory the system
+/// reports available (`have`; `None`: it does not say).
+fn check_image_memory(loaded: &LoadedScene, have: Option<u64>) -> anyhow::Result<()> {
+    let s = &loaded.desc.settings;
+    let need = image_memory(s.width, s.height);
+    match have {
+        Some(have) if need > have => Err(anyhow!(
+            "{}: a {}x{} image needs {} for its pixels (6 bytes each while rendering, 3 to \
+             write them), and the system has {} available; render a smaller image",
+            loaded.config_path.display(),
+            s.width,
+            s.height,
+            crate::util::units::format_bytes(usize::try_from(need).unwrap_or(usize::MAX)),
+            crate::util::units::format_bytes(usize::try_from(have).unwrap_or(usize::MAX))
+        )),
+        _ => Ok(()),
+    }
 }
 
 /// The checkpoint of this render beside `output`: a new one, or with `resume` the one there
@@ -634,5 +654,28 @@ mod tests {
         assert!(parse_switch("yes").is_err());
         assert!(parse_switch("ON").is_err());
         assert!(parse_switch("").is_err());
+    }
+
+    #[test]
+    fn an_image_larger_than_the_memory_is_refused_with_both_figures() {
+        let mut desc = crate::generate::room();
+        desc.settings.width = 32768;
+        desc.settings.height = 32768;
+        let loaded = LoadedScene {
+            desc,
+            output: "out.bmp".into(),
+            config_path: "raytracer.cfg".into(),
+            data_path: "ROOM.txt".into(),
+        };
+        let need = image_memory(32768, 32768);
+        assert_eq!(need, 9_663_676_416);
+        let err = check_image_memory(&loaded, Some(need - 1)).expect_err("too large");
+        let text = err.to_string();
+        assert!(
+            text.starts_with("raytracer.cfg: a 32768x32768 image needs"),
+            "{text}"
+        );
+        assert!(check_image_memory(&loaded, Some(need)).is_ok());
+        assert!(check_image_memory(&loaded, None).is_ok());
     }
 }

@@ -13,7 +13,7 @@
 //! [`crate::util::sys`], shared with the master.
 
 use crate::util::secret::{check_exposure, load_secret, random_nonce, Secret};
-use crate::util::sys::{cut_name, host_name};
+use crate::util::sys::{available_memory, cut_name, host_name};
 use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
 use std::net::TcpListener;
@@ -80,14 +80,6 @@ pub struct WorkerArgs {
 
 /// The most render threads a worker takes (`--threads`).
 const MAX_THREADS: i64 = 1024;
-
-/// Memory the system reports available (`MemAvailable` in `/proc/meminfo`), if it does.
-fn available_memory() -> Option<u64> {
-    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
 
 fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
     match outcome {

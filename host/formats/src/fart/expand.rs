@@ -38,17 +38,13 @@ use strahl_core::scene::{
     MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES,
 };
 
-/// The most analytic shapes a scene may expand to.
-pub const MAX_SHAPES: u64 = 1_000_000;
+pub use crate::limits::{MAX_SHAPES, MAX_TRIANGLES};
 
 /// The most values one `for` may run through.
 pub const MAX_LOOP: i64 = 1_000_000;
 
 /// The most loop iterations of all `for`s together.
 pub const MAX_ITERATIONS: u64 = 10_000_000;
-
-/// The most mesh triangles a scene may place (meshes used several times count each time).
-pub const MAX_TRIANGLES: u64 = 20_000_000;
 
 /// The material written as `material { }` (FART's defaults).
 pub const DEFAULT_MATERIAL: Shader = Shader {
