@@ -43,7 +43,7 @@ const HOST: LayerMap = LayerMap {
 const FORMATS: LayerMap = LayerMap {
     src: "host/formats/src",
     layers: &[
-        &["error", "fs"],
+        &["error", "fs", "limits"],
         &["lines"],
         &["config", "datafile", "obj", "hosts"],
         &["mesh", "nff", "fart"],

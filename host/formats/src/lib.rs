@@ -15,6 +15,7 @@
 //! | [`load`] | a whole scene, the reader picked by extension, with the command line's overrides | [`load::load_scene`] | |
 //! | [`convert`] | OBJ to the seed's data file and `raytracer.cfg` (through the writers above) | | [`convert::convert_obj`] |
 //! | [`fs`] | any file, written whole or not at all | | [`fs::write_atomically`] |
+//! | [`limits`] | the counts every format holds a scene to | | |
 //!
 //! Every reader reports a [`error::LoadError`] that names the file and, where there is one, the
 //! line (and column). The crate depends on `strahl-core`, `glam`, `thiserror`, `anyhow` (the
