@@ -55,7 +55,7 @@ pub fn image_kind(path: &Path) -> anyhow::Result<ImageKind> {
 }
 
 /// Checks, before rendering, that an image can be written to `path`: a known extension, an
-/// existing destination folder, and no folder of that name.
+/// existing destination folder that takes a new file, and no folder of that name.
 ///
 /// # Errors
 /// A message naming the path and what is wrong with it.
@@ -78,6 +78,18 @@ pub fn check_output_path(path: &Path) -> anyhow::Result<ImageKind> {
     if path.is_dir() {
         bail!("{}: cannot write the image: it is a folder", path.display());
     }
+    // The image is written through a temporary file in the folder: try one now.
+    tempfile::Builder::new()
+        .prefix(".strahl-")
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "{}: cannot write the image: folder {} takes no new file ({e})",
+                path.display(),
+                dir.display()
+            )
+        })?;
     Ok(kind)
 }
 

@@ -457,3 +457,15 @@ fn error_messages_escape_control_bytes_and_shorten_long_words() -> TestResult {
     assert!(stderr(&out).contains("more characters"), "{}", stderr(&out));
     Ok(())
 }
+
+#[test]
+fn an_output_folder_that_takes_no_file_fails_before_rendering() -> TestResult {
+    // /proc exists but takes no new file, even for root (permission bits would not stop root).
+    let dir = scene_dir(CONFIG, DATA)?;
+    let out = render(dir.path(), &["-o", "/proc/strahl-out.bmp"])?;
+    assert!(!out.status.success());
+    let err = stderr(&out);
+    assert!(err.contains("takes no new file"), "{err}");
+    assert!(!err.contains("rendered"), "{err}");
+    Ok(())
+}

@@ -6,7 +6,8 @@
 //! [`MAX_CHUNK_LEN`] bytes and put it back together with a [`SceneAssembler`], which checks the
 //! digest before anything is decoded. Workers therefore need no shared file system.
 
-use crate::accel::octree::OctreeParams;
+use crate::accel::octree::{OctreeParams, BYTES_PER_PRIMITIVE};
+use crate::geom::solid::SolidNode;
 use crate::scene::SceneDesc;
 use crate::wire::error::ProtocolError;
 use crate::wire::message::Digest;
@@ -91,12 +92,18 @@ pub fn decode_bundle(bytes: &[u8]) -> Result<SceneBundle, ProtocolError> {
     }
 }
 
-/// Bytes a worker needs to hold a scene: its encoding plus the prepared scene (corner points
-/// and normals, shader indices, about 40 octree bytes per triangle), an estimate used to refuse
-/// scenes a small node cannot hold before it tries.
+/// Bytes a worker needs to hold a scene: its encoding plus the prepared scene, an estimate used
+/// to refuse scenes a small node cannot hold before it tries. Per triangle: its corners and
+/// normals (72 bytes), shader index (4) and the octree's budget
+/// ([`BYTES_PER_PRIMITIVE`]); per analytic shape or CSG node: the node itself, its place in
+/// the object list, its bounding box (24) and the octree's budget.
 pub fn memory_estimate(encoded_len: u32, desc: Option<&SceneDesc>) -> u64 {
+    let octree = BYTES_PER_PRIMITIVE as u64;
     let prepared = desc.map_or(0, |d| {
-        d.points.len() as u64 * 12 + d.triangles.len() as u64 * (36 + 36 + 4 + 40)
+        let solid = core::mem::size_of::<SolidNode>() as u64 + 4 + 24 + octree;
+        d.points.len() as u64 * 12
+            + d.triangles.len() as u64 * (36 + 36 + 4 + octree)
+            + d.solids.len() as u64 * solid
     });
     u64::from(encoded_len) + prepared
 }
@@ -178,5 +185,29 @@ impl SceneAssembler {
             return Err(ProtocolError::DigestMismatch);
         }
         Ok(self.bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::solid::{CsgOp, SolidNode};
+
+    #[test]
+    fn the_estimate_counts_solids_as_well_as_triangles() {
+        let mut desc = SceneDesc::default();
+        let empty = memory_estimate(100, Some(&desc));
+        assert_eq!(empty, 100);
+        let node = SolidNode::Csg {
+            op: CsgOp::Union,
+            a: 0,
+            b: 0,
+        };
+        desc.solids = alloc::vec![node; 1000];
+        let with_solids = memory_estimate(100, Some(&desc));
+        assert!(
+            with_solids >= empty + 1000 * (BYTES_PER_PRIMITIVE as u64 + 24),
+            "{with_solids}"
+        );
     }
 }
