@@ -771,6 +771,47 @@ fn launch_starts_a_worker_per_hosts_file_line() -> TestResult {
 }
 
 #[test]
+fn a_launch_that_fails_is_reported_at_once() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let hosts = dir.path().join("hosts");
+    std::fs::write(&hosts, "127.0.0.1\n")?;
+    let out = dir.path().join("out.bmp");
+    let hosts_arg = hosts.display().to_string();
+    let failing = "sh -c 'echo no route to {host} >&2; exit 3'";
+    let start = Instant::now();
+    let r = render(
+        SMALL,
+        &out,
+        &["--workers", "0", "--hosts", &hosts_arg, "--launch", failing],
+    )?;
+    assert!(!r.status.success());
+    assert!(
+        r.stderr
+            .contains("failed (exit status: 3): no route to 127.0.0.1"),
+        "{}",
+        r.stderr
+    );
+    assert!(
+        start.elapsed() < Duration::from_secs(20),
+        "{:?}",
+        start.elapsed()
+    );
+    // With another worker the render goes on, and the failure is a warning.
+    let r = render(
+        SMALL,
+        &out,
+        &["--workers", "1", "--hosts", &hosts_arg, "--launch", failing],
+    )?;
+    r.assert_success();
+    assert!(
+        r.stderr.contains("warning: the launch command"),
+        "{}",
+        r.stderr
+    );
+    Ok(())
+}
+
+#[test]
 fn launch_never_runs_a_hosts_file_entry_as_a_command() -> TestResult {
     let dir = tempfile::tempdir()?;
     let hosts = dir.path().join("hosts");

@@ -19,7 +19,7 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{self, Receiver};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// The workers outside this process a render uses, as the user named them (the command line's
@@ -59,6 +59,63 @@ pub struct LaunchedWorker {
     /// The host it was launched for.
     pub host: String,
     child: Child,
+    /// The end of what the command wrote on stderr.
+    stderr: Arc<Mutex<Vec<u8>>>,
+}
+
+/// How long a render waits after starting its launch commands to see which failed at once.
+pub const LAUNCH_GRACE: Duration = Duration::from_millis(500);
+
+/// The most bytes of a launch command's stderr kept for its error message.
+const LAUNCH_STDERR_KEEP: usize = 1024;
+
+impl LaunchedWorker {
+    /// Why the command has already failed, if it has: its exit status and the end of its
+    /// stderr.
+    fn failure(&mut self) -> Option<String> {
+        let status = self.child.try_wait().ok()??;
+        if status.success() {
+            return None;
+        }
+        let err = self.stderr.lock().unwrap_or_else(|e| e.into_inner());
+        let text = String::from_utf8_lossy(&err);
+        Some(format!(
+            "the launch command for host {} failed ({status}){}",
+            self.host,
+            match text.trim() {
+                "" => String::new(),
+                t => format!(": {t}"),
+            }
+        ))
+    }
+}
+
+/// Waits [`LAUNCH_GRACE`] and reports the launch commands that failed at once through `warn`;
+/// if every one did and no other worker is there, that is the error.
+///
+/// # Errors
+/// Every launch command failed and no other worker was named.
+fn check_launches(w: &mut Workers, others: bool, warn: &dyn Fn(&str)) -> anyhow::Result<()> {
+    if w.launched.is_empty() {
+        return Ok(());
+    }
+    let deadline = std::time::Instant::now() + LAUNCH_GRACE;
+    let mut failed: Vec<String> = Vec::new();
+    while std::time::Instant::now() < deadline && failed.len() < w.launched.len() {
+        std::thread::sleep(LAUNCHED_EXIT_POLL);
+        failed = w
+            .launched
+            .iter_mut()
+            .filter_map(LaunchedWorker::failure)
+            .collect();
+    }
+    if failed.len() == w.launched.len() && !others {
+        bail!("{}", failed.join("; "));
+    }
+    for f in &failed {
+        warn(&format!("{f}; going on without it"));
+    }
+    Ok(())
 }
 
 /// How often a dropped [`LaunchedWorker`] looks whether its command has exited.
@@ -71,15 +128,15 @@ const LAUNCHED_EXIT_POLLS: u32 = 20;
 impl Drop for LaunchedWorker {
     fn drop(&mut self) {
         // A worker that served its session has exited by now; give it a moment, then stop the
-        // launch command's whole process group (the shell and whatever it started).
+        // launch command's whole process group (the command and whatever it started).
         for _ in 0..LAUNCHED_EXIT_POLLS {
             if matches!(self.child.try_wait(), Ok(Some(_))) {
                 return;
             }
             std::thread::sleep(LAUNCHED_EXIT_POLL);
         }
-        // `Child::kill` alone signals only the shell, so an `ssh` or worker it started would
-        // live on: the whole group goes first (the shell leads it, see `launch_one`).
+        // `Child::kill` alone signals only the command, so a worker an `ssh` or a script
+        // started would live on: the whole group goes first (the command leads it).
         if let Ok(id) = i32::try_from(self.child.id()) {
             let _ = killpg(Pid::from_raw(id), Signal::SIGTERM);
         }
@@ -173,6 +230,8 @@ pub fn start_workers(
             for h in &hosts {
                 w.launched.push(launch(template, h, &master)?);
             }
+            let others = !w.links.is_empty() || !dial.is_empty() || !serial.is_empty();
+            check_launches(&mut w, others, warn)?;
         }
         w.acceptor = Some(acceptor);
         w.joins = Some(joins);
@@ -266,16 +325,32 @@ fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<Laun
     command
         .args(rest)
         .stdin(Stdio::null())
-        .stdout(Stdio::null());
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped());
     // Its own process group, so stopping it stops what it started too.
     #[cfg(unix)]
     std::os::unix::process::CommandExt::process_group(&mut command, 0);
-    let child = command
+    let mut child = command
         .spawn()
         .with_context(|| format!("cannot start `{}` for host {}", args.join(" "), host.host))?;
+    let stderr = Arc::new(Mutex::new(Vec::new()));
+    if let Some(mut pipe) = child.stderr.take() {
+        let keep = Arc::clone(&stderr);
+        // Drained to the end (so the command never blocks on a full pipe); the end is kept.
+        std::thread::spawn(move || {
+            let mut buf = [0u8; 512];
+            while let Ok(n @ 1..) = std::io::Read::read(&mut pipe, &mut buf) {
+                let mut k = keep.lock().unwrap_or_else(|e| e.into_inner());
+                k.extend_from_slice(&buf[..n]);
+                let excess = k.len().saturating_sub(LAUNCH_STDERR_KEEP);
+                k.drain(..excess);
+            }
+        });
+    }
     Ok(LaunchedWorker {
         host: host.host.clone(),
         child,
+        stderr,
     })
 }
 
