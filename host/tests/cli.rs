@@ -469,3 +469,21 @@ fn an_output_folder_that_takes_no_file_fails_before_rendering() -> TestResult {
     assert!(!err.contains("rendered"), "{err}");
     Ok(())
 }
+
+#[test]
+fn a_closed_stderr_or_stdout_never_ends_a_render() -> TestResult {
+    // `2>&-` and `>&-`: the progress bar and the summary have nowhere to go.
+    let dir = scene_dir(CONFIG, DATA)?;
+    let bin = env!("CARGO_BIN_EXE_strahl");
+    for close in ["2>&-", ">&-", ">&- 2>&-"] {
+        let status = Command::new("sh")
+            .arg("-c")
+            .arg(format!("'{bin}' render scene.cfg -o closed.bmp {close}"))
+            .current_dir(dir.path())
+            .status()?;
+        assert!(status.success(), "{close}: {status}");
+        assert!(dir.path().join("closed.bmp").exists(), "{close}");
+        std::fs::remove_file(dir.path().join("closed.bmp"))?;
+    }
+    Ok(())
+}
