@@ -5,8 +5,8 @@
 //! byte the `--workers 1` image, and the table must name what happened to each worker.
 //!
 //! The garbage sender and the liar are threads of this test behind their own TCP ports (the
-//! liar runs the core's worker session with an outbox that changes one pixel per line); the
-//! others are `strahl worker` processes.
+//! liar runs the core's worker session with the simulated cluster's lying outbox, which changes
+//! one pixel per line); the others are `strahl worker` processes.
 
 mod support;
 
@@ -17,49 +17,9 @@ use std::net::TcpListener;
 use std::process::Command;
 use std::thread;
 use std::time::Duration;
-use strahl_core::wire::frame::FrameWriter;
-use strahl_core::wire::message::WorkerMessage;
-use strahl_core::worker::{
-    serve_with, LineBuffers, LineRequest, NodeInfo, Outbox, SceneCache, WorkerError,
-};
+use strahl_core::worker::{serve_with, NodeInfo, SceneCache};
+use strahl_host::cluster::sim::Liar;
 use support::*;
-
-/// Renders like a worker, then changes the first byte of every line's pixels.
-#[derive(Default)]
-struct Liar {
-    writer: FrameWriter,
-    buffers: LineBuffers,
-}
-
-impl<L: embedded_io::Write> Outbox<L> for Liar {
-    fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        Ok(self.writer.send(link, msg)?)
-    }
-
-    fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError> {
-        match self.buffers.answer(request)? {
-            WorkerMessage::LineResult {
-                job,
-                line,
-                refined,
-                rays,
-                pixels,
-            } => {
-                let mut wrong = pixels.to_vec();
-                wrong[0] ^= 1;
-                let lie = WorkerMessage::LineResult {
-                    job,
-                    line,
-                    refined,
-                    rays,
-                    pixels: &wrong,
-                };
-                Ok(self.writer.send(link, &lie)?)
-            }
-            other => Ok(self.writer.send(link, &other)?),
-        }
-    }
-}
 
 /// A lying worker on a loopback port: serves one master, then ends.
 fn start_liar() -> Result<String, Box<dyn Error>> {

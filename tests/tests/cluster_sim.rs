@@ -1178,6 +1178,14 @@ fn worker_alive_but_never_delivering_a_line_is_dropped() {
 // 8. Trust but verify: a worker that sends wrong pixels
 // ---------------------------------------------------------------------------------------------
 
+/// A worker that sends wrong pixels.
+fn liar() -> SimWorker {
+    SimWorker {
+        fault: Fault::WrongPixels,
+        ..SimWorker::default()
+    }
+}
+
 /// A liar among honest workers, with `--verify FRACTION`: the image is the reference image,
 /// the liar is dropped with a reason that names the verification, and the honest workers are
 /// not.
@@ -1185,12 +1193,8 @@ fn liar_is_caught(fraction: f64) {
     let prepared = room(64, 48);
     let want = reference(&prepared);
     let cache = prepared.cache();
-    let liar = SimWorker {
-        fault: Fault::WrongPixels,
-        ..SimWorker::default()
-    };
     let links = vec![
-        sim(1, liar, &cache),
+        sim(1, liar(), &cache),
         sim(2, SimWorker::default(), &cache),
         sim(3, SimWorker::default(), &cache),
     ];
@@ -1233,13 +1237,9 @@ fn without_verify_a_liar_goes_unnoticed() {
     let prepared = room(64, 48);
     let want = reference(&prepared);
     let cache = prepared.cache();
-    let liar = SimWorker {
-        fault: Fault::WrongPixels,
-        ..SimWorker::default()
-    };
     let image = master(
         &prepared,
-        vec![sim(1, liar, &cache)],
+        vec![sim(1, liar(), &cache)],
         None,
         &options(2, 5_000),
         &|_| {},
@@ -1257,15 +1257,17 @@ fn verify_with_a_single_liar_is_settled_by_the_master() {
     // the liar, and the render fails for lack of workers instead of writing wrong pixels.
     let prepared = room(64, 48);
     let cache = prepared.cache();
-    let liar = SimWorker {
-        fault: Fault::WrongPixels,
-        ..SimWorker::default()
-    };
     let opts = MasterOptions {
         verify: 1.0,
         ..options(2, 5_000)
     };
-    let result = master(&prepared, vec![sim(1, liar, &cache)], None, &opts, &|_| {});
+    let result = master(
+        &prepared,
+        vec![sim(1, liar(), &cache)],
+        None,
+        &opts,
+        &|_| {},
+    );
     let Err(ClusterError::AllWorkersLost { workers, .. }) = result else {
         panic!("the render must fail: {result:?}");
     };

@@ -80,6 +80,18 @@ fn header(job: &ClusterJob) -> Header {
 }
 
 impl Checkpoint {
+    /// The checkpoint of `job` in `file` (at `path`), which holds `records` results.
+    fn over(path: &Path, file: File, job: &ClusterJob, records: usize) -> Checkpoint {
+        Checkpoint {
+            path: path.to_path_buf(),
+            file,
+            frames: FrameWriter::new(),
+            wire: Vec::new(),
+            height: job.height,
+            records,
+        }
+    }
+
     /// Starts a new checkpoint for `job` at `path`, replacing none: a checkpoint already there
     /// belongs to an interrupted render and is kept.
     ///
@@ -99,14 +111,7 @@ impl Checkpoint {
                 ),
                 _ => anyhow::anyhow!("{}: cannot create the checkpoint: {e}", path.display()),
             })?;
-        let mut c = Checkpoint {
-            path: path.to_path_buf(),
-            file,
-            frames: FrameWriter::new(),
-            wire: Vec::new(),
-            height: job.height,
-            records: 0,
-        };
+        let mut c = Checkpoint::over(path, file, job, 0);
         let frame = c.frames.encode(&header(job))?.to_vec();
         c.write(&frame)?;
         Ok(c)
@@ -146,14 +151,7 @@ impl Checkpoint {
             .append(true)
             .open(path)
             .with_context(|| format!("{}: cannot append to the checkpoint", path.display()))?;
-        let mut c = Checkpoint {
-            path: path.to_path_buf(),
-            file,
-            frames: FrameWriter::new(),
-            wire: Vec::new(),
-            height: job.height,
-            records: records.len(),
-        };
+        let mut c = Checkpoint::over(path, file, job, records.len());
         // A partial record at the end is cut off by the delimiter of the next one.
         c.write(&[0])?;
         Ok((c, records))

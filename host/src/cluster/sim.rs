@@ -38,9 +38,9 @@ pub enum Fault {
 }
 
 /// The outbox of a [`Fault::WrongPixels`] worker: renders like [`strahl_core::worker::Inline`],
-/// then changes one pixel.
+/// then changes one pixel. Public for tests that put a lying worker behind other transports.
 #[derive(Default)]
-struct Liar {
+pub struct Liar {
     writer: FrameWriter,
     buffers: LineBuffers,
     pixels: Vec<u8>,
