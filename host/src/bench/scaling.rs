@@ -286,6 +286,28 @@ fn column(
         .collect()
 }
 
+/// The two TCP columns: 1 to `max` one-thread worker processes, and one process on 1 to `max`
+/// threads.
+fn tcp_columns(
+    prepared: &PreparedScene,
+    max: u32,
+    runs: usize,
+    opts: &MasterOptions,
+) -> anyhow::Result<(Vec<Figure>, Vec<Figure>)> {
+    let procs = start_worker_processes(max)?;
+    let tcp = column(max, runs, |n| tcp_render(prepared, &procs[..n], opts))?;
+    drop(procs);
+    // One process per thread count, started before the runs (its first run brings it the
+    // scene, as in the column before).
+    let multi: Vec<WorkerProcess> = (1..=max)
+        .map(|n| start_worker_process(0, n))
+        .collect::<anyhow::Result<_>>()?;
+    let threads = column(max, runs, |n| {
+        tcp_render(prepared, std::slice::from_ref(&multi[n - 1]), opts)
+    })?;
+    Ok((tcp, threads))
+}
+
 /// Measures the in-process and TCP times and the master's load, and runs the model.
 fn measure(args: &ScalingOptions) -> anyhow::Result<Measured> {
     let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get) as u32;
@@ -316,20 +338,7 @@ fn measure(args: &ScalingOptions) -> anyhow::Result<Measured> {
     let (tcp, threads) = if args.no_tcp {
         (Vec::new(), Vec::new())
     } else {
-        let procs = start_worker_processes(max_real)?;
-        let tcp = column(max_real, runs, |n| {
-            tcp_render(&prepared, &procs[..n], &opts)
-        })?;
-        drop(procs);
-        // One process per thread count, started before the runs (its first run brings it the
-        // scene, as in the column before).
-        let multi: Vec<WorkerProcess> = (1..=max_real)
-            .map(|n| start_worker_process(0, n))
-            .collect::<anyhow::Result<_>>()?;
-        let threads = column(max_real, runs, |n| {
-            tcp_render(&prepared, std::slice::from_ref(&multi[n - 1]), &opts)
-        })?;
-        (tcp, threads)
+        tcp_columns(&prepared, max_real, runs, &opts)?
     };
 
     // The master's cost per result, with workers that answer without rendering.

@@ -14,7 +14,7 @@ use crate::cluster::checkpoint::{checkpoint_path, Checkpoint, Record};
 use crate::cluster::executor::{start_workers, WorkerSources};
 use crate::cluster::job::ClusterJob;
 use crate::cluster::job::{PROBE_INTERVAL, WINDOW, WORKER_TIMEOUT};
-use crate::cluster::master::{run_master_with, Hooks, MasterOptions};
+use crate::cluster::master::{run_master_with, ClusterImage, Hooks, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::report::WorkerTable;
 use crate::formats::fs::write_atomically;
@@ -403,65 +403,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         }
     };
     warn_about_scene(args, &loaded, &prepared, &warn);
-    let job = prepared.job();
-    let (checkpoint, done) = open_checkpoint(args.resume, &loaded.output, &job)?;
-    if !done.is_empty() && !args.quiet {
-        progress.println(&format!(
-            "resuming: {} results kept in {}",
-            done.len(),
-            checkpoint.path().display()
-        ));
-    }
-    let checkpoint = Mutex::new(Some(checkpoint));
-    let record = |task: u32, rays: RayCounts, pixels: &[Pixel]| {
-        record_result(&checkpoint, task, rays, pixels, &warn);
-    };
-    let workers = start_workers(
-        &args.cluster.sources(secret.is_some()),
-        args.worker_count(),
-        &prepared,
-        &warn,
-    );
-    let mut workers = match workers {
-        Ok(w) => w,
-        Err(e) => {
-            let c = checkpoint.into_inner().unwrap_or_else(|p| p.into_inner());
-            return Err(with_resume_hint(e, c));
-        }
-    };
     let render_start = Instant::now();
-    let hooks = Hooks {
-        on_line: &|_, rays| progress.line_done(rays),
-        log: &warn,
-        on_result: Some(&record),
-        resume: &done,
-        stop: Some(stop_on_ctrl_c()),
-    };
-    let image = run_master_with(
-        &job,
-        std::mem::take(&mut workers.links),
-        workers.joins.as_ref(),
-        &args.master_options(secret),
-        &hooks,
-    );
+    let image = render_and_write(args, &loaded, &prepared, secret, &progress, &warn)?;
     let render = render_start.elapsed();
-    progress.finish();
-    drop(workers);
-    let checkpoint = checkpoint.into_inner().unwrap_or_else(|e| e.into_inner());
-    let image = match image {
-        Ok(image) => image,
-        Err(e) => return Err(with_resume_hint(e.into(), checkpoint)),
-    };
-    write_image(
-        &loaded.output,
-        settings.width,
-        settings.height,
-        &image.pixels,
-    )?;
-    // (None: writing it failed, as was warned.)
-    if let Some(c) = checkpoint {
-        c.remove()?;
-    }
 
     let summary = RenderSummary {
         width: settings.width,
@@ -507,6 +451,79 @@ fn check_image_memory(loaded: &LoadedScene, have: Option<u64>) -> anyhow::Result
         )),
         _ => Ok(()),
     }
+}
+
+/// Renders `prepared` with the workers the command line names, keeping every result in the
+/// checkpoint (going on from it with `--resume`), and writes the image; the checkpoint is
+/// removed once the image is written.
+///
+/// # Errors
+/// A checkpoint that cannot be opened, no worker, the render failing or stopped (the error
+/// then says how to resume), the image that cannot be written.
+fn render_and_write(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    prepared: &PreparedScene,
+    secret: Option<Secret>,
+    progress: &Progress,
+    warn: &(dyn Fn(&str) + Sync),
+) -> anyhow::Result<ClusterImage> {
+    let job = prepared.job();
+    let (checkpoint, done) = open_checkpoint(args.resume, &loaded.output, &job)?;
+    if !done.is_empty() && !args.quiet {
+        progress.println(&format!(
+            "resuming: {} results kept in {}",
+            done.len(),
+            checkpoint.path().display()
+        ));
+    }
+    let checkpoint = Mutex::new(Some(checkpoint));
+    let record = |task: u32, rays: RayCounts, pixels: &[Pixel]| {
+        record_result(&checkpoint, task, rays, pixels, warn);
+    };
+    let workers = start_workers(
+        &args.cluster.sources(secret.is_some()),
+        args.worker_count(),
+        prepared,
+        warn,
+    );
+    let mut workers = match workers {
+        Ok(w) => w,
+        Err(e) => return Err(with_resume_hint(e, take(checkpoint))),
+    };
+    let hooks = Hooks {
+        on_line: &|_, rays| progress.line_done(rays),
+        log: warn,
+        on_result: Some(&record),
+        resume: &done,
+        stop: Some(stop_on_ctrl_c()),
+    };
+    let image = run_master_with(
+        &job,
+        std::mem::take(&mut workers.links),
+        workers.joins.as_ref(),
+        &args.master_options(secret),
+        &hooks,
+    );
+    progress.finish();
+    drop(workers);
+    let checkpoint = take(checkpoint);
+    let image = match image {
+        Ok(image) => image,
+        Err(e) => return Err(with_resume_hint(e.into(), checkpoint)),
+    };
+    let s = prepared.scene.settings;
+    write_image(&loaded.output, s.width, s.height, &image.pixels)?;
+    // (None: writing it failed, as was warned.)
+    if let Some(c) = checkpoint {
+        c.remove()?;
+    }
+    Ok(image)
+}
+
+/// The checkpoint out of its lock.
+fn take(checkpoint: Mutex<Option<Checkpoint>>) -> Option<Checkpoint> {
+    checkpoint.into_inner().unwrap_or_else(|e| e.into_inner())
 }
 
 /// The checkpoint of this render beside `output`: a new one, or with `resume` the one there

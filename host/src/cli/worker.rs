@@ -123,6 +123,53 @@ fn rejection_text(r: Rejection) -> &'static str {
     }
 }
 
+/// Listens at `listen` and serves masters (`--listen`), announcing where and how.
+///
+/// # Errors
+/// A bad address, one beyond this machine without a secret or `--insecure`, or one that cannot
+/// be bound.
+fn serve_listening(
+    args: &WorkerArgs,
+    listen: &str,
+    node: &NodeInfo<'_>,
+    cache: &mut SceneCache,
+) -> anyhow::Result<()> {
+    let name = node.name;
+    let endpoint =
+        strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen: {e}"))?;
+    check_exposure(
+        &endpoint,
+        node.secret.is_some(),
+        args.insecure,
+        "this worker",
+    )?;
+    let listener =
+        TcpListener::bind(&endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
+    let addr = listener.local_addr()?;
+    let trust = if node.secret.is_some() {
+        "masters must prove the shared secret"
+    } else {
+        "no secret: any master that reaches the port"
+    };
+    eprintln!(
+        "strahl worker {name} ({} threads, {trust}): listening on {addr}",
+        node.threads
+    );
+    strahl_tcp::serve_listener(
+        &listener,
+        node,
+        cache,
+        args.sessions,
+        &mut |peer, outcome| {
+            eprintln!(
+                "strahl worker {name}: master {peer}: {}",
+                describe_tcp(&outcome)
+            );
+        },
+    )
+    .with_context(|| format!("accepting on {addr}"))
+}
+
 /// Runs `strahl worker`.
 ///
 /// # Errors
@@ -150,31 +197,7 @@ pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
     };
     let mut cache = SceneCache::new();
     if let Some(listen) = &args.listen {
-        let endpoint =
-            strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen: {e}"))?;
-        check_exposure(&endpoint, secret.is_some(), args.insecure, "this worker")?;
-        let listener =
-            TcpListener::bind(&endpoint).with_context(|| format!("cannot listen on {endpoint}"))?;
-        let addr = listener.local_addr()?;
-        let trust = if secret.is_some() {
-            "masters must prove the shared secret"
-        } else {
-            "no secret: any master that reaches the port"
-        };
-        eprintln!("strahl worker {name} ({threads} threads, {trust}): listening on {addr}");
-        strahl_tcp::serve_listener(
-            &listener,
-            &node,
-            &mut cache,
-            args.sessions,
-            &mut |peer, outcome| {
-                eprintln!(
-                    "strahl worker {name}: master {peer}: {}",
-                    describe_tcp(&outcome)
-                );
-            },
-        )
-        .with_context(|| format!("accepting on {addr}"))?;
+        serve_listening(args, listen, &node, &mut cache)?;
     } else if let Some(master) = &args.connect {
         let endpoint = strahl_tcp::parse_endpoint(master).map_err(|e| anyhow!("--connect: {e}"))?;
         let outcome = strahl_tcp::dial(

@@ -206,35 +206,8 @@ pub fn start_workers(
     }
 
     if args.listen.is_some() || args.launch.is_some() {
-        // Without a secret, a master that listens for workers listens on this machine only.
-        let default = if args.secret {
-            "0.0.0.0:0"
-        } else {
-            "127.0.0.1:0"
-        };
-        let spec = args.listen.as_deref().unwrap_or(default);
-        let endpoint =
-            strahl_tcp::parse_listen_address(spec).map_err(|e| anyhow!("--listen {e}"))?;
-        check_exposure(&endpoint, args.secret, args.insecure, "this master")?;
-        let (acceptor, joins) = accept_workers(&endpoint)?;
-        if let Some(template) = &args.launch {
-            let master = if acceptor.address.ip().is_unspecified() {
-                format!(
-                    "{}:{}",
-                    crate::util::sys::host_name(),
-                    acceptor.address.port()
-                )
-            } else {
-                acceptor.address.to_string()
-            };
-            for h in &hosts {
-                w.launched.push(launch(template, h, &master)?);
-            }
-            let others = !w.links.is_empty() || !dial.is_empty() || !serial.is_empty();
-            check_launches(&mut w, others, warn)?;
-        }
-        w.acceptor = Some(acceptor);
-        w.joins = Some(joins);
+        let others = !w.links.is_empty() || !dial.is_empty() || !serial.is_empty();
+        listen_and_launch(args, &hosts, others, &mut w, warn)?;
     }
 
     for endpoint in dial {
@@ -269,6 +242,49 @@ pub const MAX_JOINED: usize = 256;
 
 /// The shortest time between two accepted connections: at most 500 a second.
 const ACCEPT_PACE: Duration = Duration::from_millis(2);
+
+/// Listens for workers that dial in (`--listen`, or a free port with `--launch`) and starts a
+/// launch command per host; `others`: whether other workers are named.
+///
+/// # Errors
+/// A bad or refused listen address, a launch command that cannot start, or every launch failing
+/// with no other worker.
+fn listen_and_launch(
+    args: &WorkerSources,
+    hosts: &[HostEntry],
+    others: bool,
+    w: &mut Workers,
+    warn: &dyn Fn(&str),
+) -> anyhow::Result<()> {
+    // Without a secret, a master that listens for workers listens on this machine only.
+    let default = if args.secret {
+        "0.0.0.0:0"
+    } else {
+        "127.0.0.1:0"
+    };
+    let spec = args.listen.as_deref().unwrap_or(default);
+    let endpoint = strahl_tcp::parse_listen_address(spec).map_err(|e| anyhow!("--listen {e}"))?;
+    check_exposure(&endpoint, args.secret, args.insecure, "this master")?;
+    let (acceptor, joins) = accept_workers(&endpoint)?;
+    if let Some(template) = &args.launch {
+        let master = if acceptor.address.ip().is_unspecified() {
+            format!(
+                "{}:{}",
+                crate::util::sys::host_name(),
+                acceptor.address.port()
+            )
+        } else {
+            acceptor.address.to_string()
+        };
+        for h in hosts {
+            w.launched.push(launch(template, h, &master)?);
+        }
+        check_launches(w, others, warn)?;
+    }
+    w.acceptor = Some(acceptor);
+    w.joins = Some(joins);
+    Ok(())
+}
 
 /// Listens at `endpoint` and sends a link for each worker that connects, until dropped; at most
 /// [`MAX_JOINED`] of them, at most one per [`ACCEPT_PACE`].
