@@ -16,6 +16,7 @@ use crate::util::sys::thread_cpu_time;
 use anyhow::{anyhow, Context as _};
 use embedded_io_adapters::std::FromStd;
 use std::time::{Duration, Instant};
+use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::frame::FrameWriter;
 use strahl_core::wire::message::WorkerMessage;
 use strahl_core::wire::PIXEL_WIRE_BYTES;
@@ -44,11 +45,16 @@ impl Outbox<FromStd<PipeEnd>> for Echo {
     ) -> Result<(), WorkerError> {
         let width = request.scene.settings.width as usize;
         self.pixels.resize(width * PIXEL_WIRE_BYTES, 0);
+        // The counts a real line has: one primary ray per pixel in a first pass.
+        let rays = RayCounts {
+            primary: if request.mask.is_some() { 0 } else { width as u64 },
+            ..RayCounts::default()
+        };
         let msg = WorkerMessage::LineResult {
             job: request.job,
             line: request.line,
             refined: request.mask.is_some(),
-            rays: Default::default(),
+            rays,
             pixels: &self.pixels,
         };
         Ok(self.writer.send(link, &msg)?)

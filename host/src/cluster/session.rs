@@ -454,6 +454,20 @@ impl<'a> Session<'a> {
                 && (!refined || self.job.adaptive.is_some()) =>
             {
                 let task = Task::from_wire(line, refined);
+                // A first pass traces one primary ray per pixel, a second pass none: a count
+                // that a line cannot have comes from a broken or hostile worker.
+                let primary = if refined {
+                    0
+                } else {
+                    u64::from(self.job.width)
+                };
+                if rays.primary != primary {
+                    let reason = format!(
+                        "it reported {} primary rays for a line of {} pixels",
+                        rays.primary, self.job.width
+                    );
+                    return self.lose(id, reason, wire);
+                }
                 self.take_line(id, task, (rays, &pixels), now, wire);
             }
             Incoming::FenceAck { seq } => self.on_fence_ack(id, seq),
@@ -1130,7 +1144,7 @@ mod tests {
                 line: y,
                 refined,
                 rays: RayCounts {
-                    primary: 1,
+                    primary: if refined { 0 } else { u64::from(job.width) },
                     ..RayCounts::default()
                 },
                 pixels: vec![Pixel([value; 3]); job.width as usize],
@@ -1277,6 +1291,40 @@ mod tests {
         let pixels = s.into_image().expect("complete").pixels;
         assert_eq!(pixels[0], Pixel([0; 3]));
         assert!(pixels[2..].iter().all(|p| *p == Pixel([7; 3])));
+    }
+
+    #[test]
+    fn a_result_with_impossible_ray_counts_drops_the_worker() {
+        let job = job(2, 3, None);
+        let opts = MasterOptions::default();
+        let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        let Event::Message(_, Incoming::Line { pixels, .. }) = line(&job, 0, false, 5) else {
+            unreachable!("line() makes a line result")
+        };
+        let forged = Incoming::Line {
+            job: job.id,
+            line: 0,
+            refined: false,
+            rays: RayCounts {
+                primary: u64::MAX,
+                ..RayCounts::default()
+            },
+            pixels,
+        };
+        s.handle(Event::Message(0, forged), &mut wire);
+        assert_eq!(wire.cut, [0]);
+        let image = s.into_image();
+        let Err(ClusterError::AllWorkersLost { workers, .. }) = image else {
+            panic!("the only worker is lost");
+        };
+        let reason = workers[0].lost.as_deref().unwrap_or_default();
+        assert!(
+            reason.contains("primary rays for a line of 2 pixels"),
+            "{reason}"
+        );
     }
 
     #[test]
