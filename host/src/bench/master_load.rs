@@ -47,7 +47,11 @@ impl Outbox<FromStd<PipeEnd>> for Echo {
         self.pixels.resize(width * PIXEL_WIRE_BYTES, 0);
         // The counts a real line has: one primary ray per pixel in a first pass.
         let rays = RayCounts {
-            primary: if request.mask.is_some() { 0 } else { width as u64 },
+            primary: if request.mask.is_some() {
+                0
+            } else {
+                width as u64
+            },
             ..RayCounts::default()
         };
         let msg = WorkerMessage::LineResult {
