@@ -297,6 +297,11 @@ struct PtyWorker {
 
 impl PtyWorker {
     fn start(name: &str) -> Result<Self, Box<dyn Error>> {
+        PtyWorker::start_with(name, None)
+    }
+
+    /// A worker that requires masters to prove `secret`.
+    fn start_with(name: &str, secret: Option<&'static [u8]>) -> Result<Self, Box<dyn Error>> {
         let (master, slave) = strahl_serial::pty_pair()?;
         let path = device_path(&slave)?;
         let (tx, done) = mpsc::channel();
@@ -309,7 +314,7 @@ impl PtyWorker {
                     arch: std::env::consts::ARCH,
                     scene_memory: u64::MAX,
                     threads: 1,
-                    secret: None,
+                    secret,
                     nonce: || [7; 32],
                 };
                 let mut cache = SceneCache::new();
@@ -1003,5 +1008,53 @@ fn worker_on_a_missing_serial_port_fails() -> TestResult {
     let err = stderr(&out);
     assert!(err.starts_with("error: "), "{err}");
     assert!(err.contains(bad), "{err}");
+    Ok(())
+}
+
+#[test]
+fn the_shared_secret_works_over_a_serial_link() -> TestResult {
+    // The same handshake as over TCP: a master with the worker's secret renders the reference
+    // image; one without it is told the worker requires one.
+    const SECRET: &[u8] = b"a serial cable's secret, 16+ bytes";
+    let dir = scene_dir(DATA)?;
+    let reference = reference_bmp(dir.path())?;
+    std::fs::write(dir.path().join("key"), SECRET)?;
+    let mut worker = PtyWorker::start_with("pty-guarded", Some(SECRET))?;
+    let out = render(
+        dir.path(),
+        &[
+            "-o",
+            "s.bmp",
+            "--workers",
+            "0",
+            "--serial",
+            &worker.path,
+            "--secret-file",
+            "key",
+        ],
+    )?;
+    assert_success(&out);
+    assert_eq!(std::fs::read(dir.path().join("s.bmp"))?, reference);
+    let (result, _, ends) = worker.finish()?;
+    assert_eq!(result, Ok(()));
+    assert_eq!(ends, ["Ok(Ended)"]);
+
+    let mut worker = PtyWorker::start_with("pty-guarded", Some(SECRET))?;
+    let out = render(
+        dir.path(),
+        &["-o", "n.bmp", "--workers", "0", "--serial", &worker.path],
+    )?;
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("it requires a shared secret"),
+        "{}",
+        stderr(&out)
+    );
+    let (_, _, ends) = worker.finish()?;
+    assert_eq!(
+        ends,
+        ["Err(Rejected(MasterHasNoSecret))"],
+        "the worker logs why"
+    );
     Ok(())
 }

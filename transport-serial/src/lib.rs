@@ -70,7 +70,8 @@ pub fn pty_pair() -> Result<(SerialPort, SerialPort), Error> {
 /// told how each session ended. Returns after `sessions` sessions if given.
 ///
 /// # Errors
-/// A session's error other than a version mismatch (which is reported and waited through).
+/// A session's error other than a refused session (another protocol version, a master without
+/// the secret, a master that rejected this worker), which is reported and waited through.
 pub fn serve_port(
     port: SerialPort,
     node: &NodeInfo<'_>,
@@ -90,7 +91,13 @@ pub fn serve_port(
                 // will come on this port.
                 return Ok(());
             }
-            Ok(SessionEnd::Ended) | Err(WorkerError::VersionMismatch { .. }) => report(outcome),
+            // A session refused either way ends; the worker waits for the next master.
+            Ok(SessionEnd::Ended)
+            | Err(
+                WorkerError::VersionMismatch { .. }
+                | WorkerError::Unauthenticated
+                | WorkerError::Rejected(_),
+            ) => report(outcome),
             Err(e) => return Err(e),
         }
     }
