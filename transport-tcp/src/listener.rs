@@ -2,7 +2,8 @@
 //! connects can hold the worker.
 //!
 //! The accepting thread hands each connection to a thread of its own, at most
-//! [`MAX_CONNECTIONS`] at once (more are closed at once, with a line in the report). A
+//! [`MAX_CONNECTIONS`] at once (more are closed at once, with a line in the report), and
+//! accepts at most one connection per [`ACCEPT_PACE`]. A
 //! connection must send its first bytes within [`HANDSHAKE_TIMEOUT`] or it is closed; only then
 //! does it wait for the session, so silent connections never stand between the worker and its
 //! master. A session whose master sends nothing for [`IDLE_TIMEOUT`] ends. The scene cache is
@@ -25,6 +26,10 @@ pub const IDLE_TIMEOUT: Duration = Duration::from_secs(300);
 /// Connections a listening worker holds at once (one in session, the others waiting for it or
 /// for their first bytes); more are closed at once.
 pub const MAX_CONNECTIONS: usize = 8;
+
+/// The shortest time between two accepted connections: at most 500 a second, so a peer that
+/// connects in a loop cannot keep the worker busy opening and closing threads.
+pub const ACCEPT_PACE: Duration = Duration::from_millis(2);
 
 /// What a report says about one connection.
 pub type Report<'r> = &'r mut (dyn FnMut(String, Result<SessionEnd, SessionError>) + Send);
@@ -58,6 +63,7 @@ pub fn serve_listener(
             if done() {
                 break;
             }
+            std::thread::sleep(ACCEPT_PACE);
             let peer = peer.to_string();
             let report = &report;
             let tell = move |outcome| {
