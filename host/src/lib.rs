@@ -1,6 +1,6 @@
 //! Strahl's host side: everything that needs an operating system.
 //!
-//! The host is five groups of modules and a neutral base. The file formats are a crate of their
+//! The host is six groups of modules and a neutral base. The file formats are a crate of their
 //! own, `strahl-formats` (folder `host/formats`), re-exported here as [`formats`]; the other
 //! groups are folders (or files) of this crate:
 //!
@@ -11,6 +11,7 @@
 //! | cluster | [`cluster`]: master, scheduler, links, local and simulated workers, and `executor` (which workers a render uses, and starting them) | rendering through workers |
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
 //! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `peers/`, `stats` | `strahl bench` and its studies |
+//! | view | [`view`]: `hub`, `events`, `server`, `page`, `control` | the live view in a browser (`render --view`, `strahl view`) |
 //! | base | [`util`]: `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
 //!
 //! Dependencies point one way, from the interface down:
@@ -19,6 +20,7 @@
 //! cli ──► bench ──► cluster ──► formats
 //!  │        │          └──► util
 //!  │        └──► generate ──► formats
+//!  ├──► view ──► cluster, output, formats, util
 //!  └──► output, and every group below
 //! ```
 //!
@@ -29,6 +31,8 @@
 //! - `cluster` uses `formats` (the hosts file) and `util`; it takes plain structs
 //!   (`WorkerSources`, `MasterOptions`), never clap types.
 //! - the benchmarks use `cluster`, `formats`, `generate` and `util`; `output` uses `formats::fs`.
+//! - `view` uses `cluster` (the master's hooks, the workers' states), `output`, `formats` and
+//!   `util`; it sits beside `bench`, and neither uses the other.
 //! - `cli` uses everything; nothing uses `cli` except `main.rs`. All clap types live in `cli`
 //!   (`cli::bench` holds the benchmarks'); each subcommand turns its arguments into the plain
 //!   options struct of the group it calls ([`formats::load::Overrides`],
@@ -51,3 +55,4 @@ pub use strahl_formats as formats;
 pub mod generate;
 pub mod output;
 pub mod util;
+pub mod view;

@@ -35,7 +35,7 @@ const HOST: LayerMap = LayerMap {
         &["util"],
         &["generate", "output"],
         &["cluster"],
-        &["bench"],
+        &["bench", "view"],
         &["cli"],
     ],
 };

@@ -2,7 +2,7 @@
 //! render shows the user while and after it runs.
 //!
 //! Each subcommand is one variant of [`Command`] holding its own argument struct (a clap type);
-//! its module ([`render`], [`worker`], [`convert`], [`generate`], [`bench`](mod@bench)) holds that struct
+//! its module ([`render`], [`view`], [`worker`], [`convert`], [`generate`], [`bench`](mod@bench)) holds that struct
 //! and a `run` function that turns the arguments into plain values and calls the group that does
 //! the work: [`crate::formats`] and [`crate::cluster`] for `render`, [`crate::formats`] for
 //! `convert`, [`crate::generate`] for `generate`, the benchmark modules for `bench`, and the
@@ -19,6 +19,7 @@ pub mod generate;
 pub mod progress;
 pub mod render;
 pub mod summary;
+pub mod view;
 pub mod worker;
 
 use clap::{Parser, Subcommand};
@@ -45,6 +46,9 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Serve masters as a render worker, over TCP (listening or dialling) or a serial port.
     Worker(worker::WorkerArgs),
+    /// Open a scene in the browser: set up its render in a form, start, stop and resume it, and
+    /// watch it fill in.
+    View(view::ViewArgs),
 }
 
 /// Runs the subcommand `cli` names.
@@ -58,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Generate(args) => generate::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Worker(args) => worker::run(&args),
+        Command::View(args) => view::run(&args),
     }
 }
 

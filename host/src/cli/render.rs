@@ -14,17 +14,20 @@ use crate::cluster::checkpoint::{checkpoint_path, Checkpoint, Record};
 use crate::cluster::executor::{start_workers, WorkerSources};
 use crate::cluster::job::ClusterJob;
 use crate::cluster::job::{PROBE_INTERVAL, WINDOW, WORKER_TIMEOUT};
-use crate::cluster::master::{run_master_with, ClusterImage, Hooks, MasterOptions};
+use crate::cluster::master::{run_master_with, ClusterImage, FinalLine, Hooks, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
+use crate::cluster::report::WorkerState;
 use crate::cluster::report::WorkerTable;
 use crate::formats::fs::write_atomically;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
 use crate::output::{check_output_path, image_memory, write_image};
 use crate::util::secret::{load_secret, Secret};
+use crate::view::events::Status;
+use crate::view::hub::Hub;
+use crate::view::server::{ViewServer, DEFAULT_VIEW};
 use anyhow::anyhow;
 use clap::Args;
 use std::io::Write as _;
-use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
@@ -37,8 +40,7 @@ use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
 use strahl_core::wire::MAX_LINES_PER_REQUEST;
 
-/// The most worker threads `--workers` accepts.
-pub const MAX_WORKERS: u32 = 1024;
+pub use crate::cluster::local::MAX_WORKERS;
 
 /// Arguments of `strahl render`. As in FART, every option given beats the scene file; `-h` is
 /// the height, help is `--help`.
@@ -134,6 +136,12 @@ pub struct RenderArgs {
     #[arg(long)]
     pub resume: bool,
 
+    /// Watch the render in a browser: serve a page at ADDR (PORT, HOST:PORT; port 0 picks one)
+    /// and print its URL; after the render the page keeps serving until Ctrl-C. Beyond this
+    /// machine only with a secret (the URL then carries a key) or --insecure.
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = DEFAULT_VIEW)]
+    pub view: Option<String>,
+
     /// Workers outside this process and how the master treats them.
     #[command(flatten)]
     pub cluster: ClusterArgs,
@@ -204,6 +212,11 @@ pub fn parse_threshold(s: &str) -> Result<f32, String> {
     }
 }
 
+/// The CPUs of this machine (1 if it does not say): the default number of in-process workers.
+pub fn cpu_count() -> u32 {
+    std::thread::available_parallelism().map_or(1, |n| u32::try_from(n.get()).unwrap_or(u32::MAX))
+}
+
 /// The parser of `--workers`: 0 to [`MAX_WORKERS`].
 fn worker_count() -> clap::builder::RangedI64ValueParser<u32> {
     clap::value_parser!(u32).range(0..=i64::from(MAX_WORKERS))
@@ -262,7 +275,8 @@ pub struct ClusterArgs {
     #[arg(long, value_name = "FRACTION", default_value_t = 0.0, value_parser = fraction)]
     pub verify: f64,
 
-    /// Listen for workers on an address other machines can reach without a secret.
+    /// Listen for workers, and serve --view, on an address other machines can reach without a
+    /// secret.
     #[arg(long)]
     pub insecure: bool,
 
@@ -351,7 +365,7 @@ impl RenderArgs {
         match self.workers {
             Some(n) => n as usize,
             None if self.cluster.has_remote() => 0,
-            None => std::thread::available_parallelism().map_or(1, NonZeroUsize::get),
+            None => cpu_count() as usize,
         }
     }
 
@@ -390,6 +404,16 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         check_stats_path(stats)?;
     }
 
+    let view = match &args.view {
+        Some(address) => Some(start_view(
+            address,
+            secret.is_some(),
+            args.cluster.insecure,
+        )?),
+        None => None,
+    };
+    let hub = view.as_ref().map(|(_, hub)| hub.as_ref());
+
     let build_start = Instant::now();
     let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
@@ -404,7 +428,18 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     warn_about_scene(args, &loaded, &prepared, &warn);
     let render_start = Instant::now();
-    let image = render_and_write(args, &loaded, &prepared, secret, &progress, &warn)?;
+    let image = render_and_write(args, &loaded, &prepared, secret, &progress, &warn, hub);
+    if let Some(hub) = hub {
+        hub.end(match &image {
+            Ok(_) => Status::Done {
+                output: loaded.output.display().to_string(),
+            },
+            Err(e) => Status::Failed {
+                message: format!("{e:#}"),
+            },
+        });
+    }
+    let image = image?;
     let render = render_start.elapsed();
 
     let summary = RenderSummary {
@@ -431,7 +466,30 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("effects: {}", scene.effects.describe());
         eprint!("{}", WorkerTable(&image.workers));
     }
+    if let Some((server, _)) = view {
+        eprintln!(
+            "view: the render is done; still serving {} until Ctrl-C",
+            server.url
+        );
+        let stop = stop_on_ctrl_c();
+        while !stop.load(Ordering::Relaxed) {
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
     Ok(())
+}
+
+/// Starts the view's server at `address` and prints its URL (also with `-q`: it is what the
+/// user asked for).
+fn start_view(
+    address: &str,
+    secret: bool,
+    insecure: bool,
+) -> anyhow::Result<(ViewServer, std::sync::Arc<Hub>)> {
+    let hub = Hub::new();
+    let server = ViewServer::start(address, std::sync::Arc::clone(&hub), None, secret, insecure)?;
+    eprintln!("view: {}", server.url);
+    Ok((server, hub))
 }
 
 /// Refuses, before anything is built, an image whose pixels cannot fit in the memory the system
@@ -467,6 +525,7 @@ fn render_and_write(
     secret: Option<Secret>,
     progress: &Progress,
     warn: &(dyn Fn(&str) + Sync),
+    hub: Option<&Hub>,
 ) -> anyhow::Result<ClusterImage> {
     let job = prepared.job();
     let (checkpoint, done) = open_checkpoint(args.resume, &loaded.output, &job)?;
@@ -491,10 +550,25 @@ fn render_and_write(
         Ok(w) => w,
         Err(e) => return Err(with_resume_hint(e, take(checkpoint))),
     };
+    if let Some(hub) = hub {
+        hub.begin(job.width, job.height);
+    }
+    let on_final = |line: FinalLine<'_>| {
+        if let Some(h) = hub {
+            h.line(&line);
+        }
+    };
+    let on_tick = |w: &[WorkerState]| {
+        if let Some(h) = hub {
+            h.workers(w);
+        }
+    };
     let hooks = Hooks {
         on_line: &|_, rays| progress.line_done(rays),
         log: warn,
         on_result: Some(&record),
+        on_final: hub.map(|_| &on_final as _),
+        on_tick: hub.map(|_| &on_tick as _),
         resume: &done,
         stop: Some(stop_on_ctrl_c()),
     };

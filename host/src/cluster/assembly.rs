@@ -52,6 +52,12 @@ impl Assembly {
         }
     }
 
+    /// Line `y`'s pixels as they stand.
+    pub(crate) fn line(&self, y: u32) -> &[Pixel] {
+        let w = self.width as usize;
+        &self.pixels[y as usize * w..(y as usize + 1) * w]
+    }
+
     fn line_mut(&mut self, y: u32) -> &mut [Pixel] {
         let w = self.width as usize;
         &mut self.pixels[y as usize * w..(y as usize + 1) * w]

@@ -14,6 +14,9 @@ use embedded_io_adapters::std::FromStd;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::worker::{serve_with, Inline, NodeInfo, Outbox, SceneCache};
 
+/// The most in-process workers a render takes (`--workers`, the view's form).
+pub const MAX_WORKERS: u32 = 1024;
+
 /// The memory an in-process worker offers a scene: all there is (it shares the master's).
 pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
 

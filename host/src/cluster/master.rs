@@ -10,7 +10,8 @@
 use crate::cluster::checkpoint::Record;
 use crate::cluster::link::Link;
 use crate::cluster::link_threads::Links;
-use crate::cluster::session::{Event, OnResult, Session, Wire};
+use crate::cluster::report::WorkerState;
+use crate::cluster::session::{Event, OnFinal, OnResult, Session, Wire};
 use crate::util::sys::POLL_INTERVAL;
 use std::collections::HashSet;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -20,11 +21,14 @@ use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::message::MasterMessage;
 
 pub use crate::cluster::job::{AdaptiveJob, ClusterError, ClusterImage, ClusterJob, MasterOptions};
-pub use crate::cluster::session::refusal_text;
+pub use crate::cluster::session::{refusal_text, FinalLine};
 
 /// How long the master, at the end, waits for its `EndSession`s to be written and for the
 /// workers to close their links before it cuts those that did not.
 pub const END_SESSION_GRACE: Duration = Duration::from_secs(2);
+
+/// How often [`Hooks::on_tick`] is told the workers' states.
+pub const TICK: Duration = Duration::from_millis(250);
 
 /// Renders `job` with the workers behind `links`, plus any that arrive on `joins` while it
 /// runs. `on_line(y, rays)` is called for each line's first result, `log` with a message for
@@ -45,11 +49,16 @@ pub fn run_master(
         on_line,
         log,
         on_result: None,
+        on_final: None,
+        on_tick: None,
         resume: &[],
         stop: None,
     };
     run_master_with(job, links, joins, opts, &hooks)
 }
+
+/// Where the workers' states go each [`TICK`].
+pub type OnTick<'a> = &'a (dyn Fn(&[WorkerState]) + Sync);
 
 /// What a render reports as it goes, what it resumes from, and when it stops early.
 pub struct Hooks<'a> {
@@ -59,6 +68,10 @@ pub struct Hooks<'a> {
     pub log: &'a (dyn Fn(&str) + Sync),
     /// Called with every result used (task number, rays, pixels): a checkpoint.
     pub on_result: Option<OnResult<'a>>,
+    /// Called with each line's final pixels and the worker that delivered them: a live view.
+    pub on_final: Option<OnFinal<'a>>,
+    /// Called about every [`TICK`] with each worker's state, and once at the end.
+    pub on_tick: Option<OnTick<'a>>,
     /// Results of an earlier run of the same job, taken first.
     pub resume: &'a [Record],
     /// Once set (Ctrl-C), the render ends with [`ClusterError::Interrupted`].
@@ -78,6 +91,9 @@ pub fn run_master_with(
 ) -> Result<ClusterImage, ClusterError> {
     let (mut wire, events) = Links::new(job.width);
     let mut session = Session::new(job, opts, hooks.on_line, hooks.log);
+    if let Some(on_final) = hooks.on_final {
+        session.report_final_lines(on_final);
+    }
     session.replay(hooks.resume);
     if let Some(record) = hooks.on_result {
         session.record_results(record);
@@ -88,6 +104,7 @@ pub fn run_master_with(
     let mut joins_open = joins.is_some();
     let mut alone_since = Instant::now();
     let mut last_check = Instant::now();
+    let mut last_tick = Instant::now();
     let mut stopped = false;
     while !session.is_complete() {
         if hooks.stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
@@ -112,6 +129,13 @@ pub fn run_master_with(
             session.check_timeouts(now, &mut wire);
         }
         session.fill_windows(now, &mut wire);
+        if let Some(tick) = hooks
+            .on_tick
+            .filter(|_| now.duration_since(last_tick) >= TICK)
+        {
+            last_tick = now;
+            tick(&session.worker_states());
+        }
         if session.any_alive() {
             alone_since = now;
         } else if !joins_open || now.duration_since(alone_since) >= opts.wait_for_workers {
@@ -119,6 +143,9 @@ pub fn run_master_with(
         }
     }
     let (finished, total) = session.progress();
+    if let Some(tick) = hooks.on_tick {
+        tick(&session.worker_states());
+    }
     let image = finish(session, wire, &events);
     if stopped {
         return Err(ClusterError::Interrupted { finished, total });

@@ -68,6 +68,40 @@ impl WorkerReport {
     }
 }
 
+/// What a worker is doing now, for a live table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Activity {
+    /// Joined; greeting or loading the scene.
+    Joining,
+    /// Has lines in flight.
+    Busy,
+    /// Ready, with nothing to do.
+    Idle,
+    /// Dropped (the report says why).
+    Lost,
+}
+
+impl Activity {
+    /// The word a table shows.
+    pub fn word(self) -> &'static str {
+        match self {
+            Activity::Joining => "joining",
+            Activity::Busy => "busy",
+            Activity::Idle => "idle",
+            Activity::Lost => "lost",
+        }
+    }
+}
+
+/// A worker's share of a render so far, and what it is doing.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkerState {
+    /// What it did so far.
+    pub report: WorkerReport,
+    /// What it is doing.
+    pub activity: Activity,
+}
+
 impl WorkerReport {
     /// Lines per request sent to it, on average; `None` if it got none.
     pub fn lines_per_request(&self) -> Option<f64> {

@@ -16,7 +16,7 @@ use crate::cluster::assembly::{Assembly, Decided};
 use crate::cluster::checkpoint::Record;
 use crate::cluster::job::{ClusterError, ClusterImage, ClusterJob, MasterOptions};
 use crate::cluster::link::LinkKind;
-use crate::cluster::report::WorkerReport;
+use crate::cluster::report::{Activity, WorkerReport, WorkerState};
 use crate::cluster::schedule::{LineScheduler, Task};
 use crate::cluster::verify::{Held, Verifier};
 use crate::util::secret::random_nonce;
@@ -205,7 +205,27 @@ pub(crate) struct Session<'a> {
     log: &'a (dyn Fn(&str) + Sync),
     /// Told each result used (task number, rays, pixels): the checkpoint.
     on_result: Option<OnResult<'a>>,
+    /// Told each line's final pixels and who delivered them: the live view.
+    on_final: Option<OnFinal<'a>>,
+    /// The worker whose result last went into each line (`None`: resumed or the master's own).
+    authors: Vec<Option<usize>>,
 }
+
+/// A line whose pixels are final, as [`OnFinal`] is told.
+pub struct FinalLine<'p> {
+    /// The line, counted from the top.
+    pub y: u32,
+    /// The rays it took in all.
+    pub rays: RayCounts,
+    /// Its final pixels.
+    pub pixels: &'p [Pixel],
+    /// The worker (numbered from 0 in the order they joined) whose result went in last;
+    /// `None` for a line resumed from a checkpoint or rendered by the master itself.
+    pub worker: Option<usize>,
+}
+
+/// Where each line's final pixels go.
+pub type OnFinal<'a> = &'a (dyn Fn(FinalLine<'_>) + Sync);
 
 /// Where each result used goes (task number, rays, pixels).
 pub type OnResult<'a> = &'a (dyn Fn(u32, RayCounts, &[Pixel]) + Sync);
@@ -245,12 +265,19 @@ impl<'a> Session<'a> {
             on_line,
             log,
             on_result: None,
+            on_final: None,
+            authors: vec![None; job.height as usize],
         }
     }
 
     /// Tells `on_result` about every result used from now on.
     pub(crate) fn record_results(&mut self, on_result: OnResult<'a>) {
         self.on_result = Some(on_result);
+    }
+
+    /// Tells `on_final` about every line whose pixels are final from now on.
+    pub(crate) fn report_final_lines(&mut self, on_final: OnFinal<'a>) {
+        self.on_final = Some(on_final);
     }
 
     /// Takes the results of an earlier run of the same job (a checkpoint) as if they had just
@@ -261,7 +288,7 @@ impl<'a> Session<'a> {
             let task = Task::from_index(r.task, self.job.height);
             let decided = self.job.adaptive.is_some() && matches!(task, Task::Line(_));
             if self.sched.complete(r.task, false) || !decided {
-                self.apply_result(task, r.rays, &r.pixels);
+                self.apply_result(task, None, r.rays, &r.pixels);
             }
         }
     }
@@ -634,7 +661,7 @@ impl<'a> Session<'a> {
         } else if self.sched.complete(index, true) {
             self.peers[id].report.lines += 1;
             self.verify.used_unchecked(index, id);
-            self.use_result(task, rays, pixels);
+            self.use_result(task, Some(id), rays, pixels);
         } else {
             self.peers[id].report.duplicates += 1;
         }
@@ -716,7 +743,7 @@ impl<'a> Session<'a> {
             None => {
                 // Nobody's result was right: the master's own is used.
                 if self.sched.complete(task.index(self.job.height), false) {
-                    self.use_result(task, rays, &pixels);
+                    self.use_result(task, None, rays, &pixels);
                 }
             }
         }
@@ -726,7 +753,7 @@ impl<'a> Session<'a> {
     fn finish_checked(&mut self, w: usize, task: Task, rays: RayCounts, pixels: &[Pixel]) {
         if self.sched.complete(task.index(self.job.height), true) {
             self.peers[w].report.lines += 1;
-            self.use_result(task, rays, pixels);
+            self.use_result(task, Some(w), rays, pixels);
         }
     }
 
@@ -790,36 +817,57 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// Puts the first result of `task` into the image; queues or finishes the second passes it
-    /// decides.
-    fn use_result(&mut self, task: Task, rays: RayCounts, pixels: &[Pixel]) {
+    /// Puts the first result of `task`, from `worker`, into the image; queues or finishes the
+    /// second passes it decides.
+    fn use_result(&mut self, task: Task, worker: Option<usize>, rays: RayCounts, pixels: &[Pixel]) {
         if let Some(record) = self.on_result {
             record(task.index(self.job.height), rays, pixels);
         }
-        self.apply_result(task, rays, pixels);
+        self.apply_result(task, worker, rays, pixels);
     }
 
     /// [`Session::use_result`] without telling the checkpoint.
-    fn apply_result(&mut self, task: Task, rays: RayCounts, pixels: &[Pixel]) {
+    fn apply_result(
+        &mut self,
+        task: Task,
+        worker: Option<usize>,
+        rays: RayCounts,
+        pixels: &[Pixel],
+    ) {
         let h = self.job.height;
+        let (Task::Line(y) | Task::Refine(y)) = task;
+        self.authors[y as usize] = worker;
         match task {
             Task::Line(y) => match self.image.put_line(y, rays, pixels) {
-                Decided::Final => (self.on_line)(y, rays),
+                Decided::Final => self.line_final(y, rays),
                 Decided::Refine(lines) => {
                     for (line, refine) in lines.into_iter().flatten() {
                         let second = Task::Refine(line).index(h);
                         if refine {
                             self.sched.queue(second);
                         } else if self.sched.complete(second, false) {
-                            (self.on_line)(line, self.image.first_rays(line));
+                            self.line_final(line, self.image.first_rays(line));
                         }
                     }
                 }
             },
             Task::Refine(y) => {
                 let all = self.image.put_refined(y, rays, pixels);
-                (self.on_line)(y, all);
+                self.line_final(y, all);
             }
+        }
+    }
+
+    /// Tells the hooks that line `y`'s pixels are final, taking `rays` in all.
+    fn line_final(&self, y: u32, rays: RayCounts) {
+        (self.on_line)(y, rays);
+        if let Some(on_final) = self.on_final {
+            on_final(FinalLine {
+                y,
+                rays,
+                pixels: self.image.line(y),
+                worker: self.authors[y as usize],
+            });
         }
     }
 
@@ -1004,6 +1052,22 @@ impl<'a> Session<'a> {
             ),
             _ => debug_assert!(false, "a request of {tasks:?}"),
         }
+    }
+
+    /// Every worker's report so far and what it is doing, in the order they joined.
+    pub(crate) fn worker_states(&self) -> Vec<WorkerState> {
+        self.peers
+            .iter()
+            .map(|p| WorkerState {
+                report: p.report.clone(),
+                activity: match p.state {
+                    State::Gone => Activity::Lost,
+                    State::Greeting | State::Loading => Activity::Joining,
+                    State::Working if p.requests.is_empty() => Activity::Idle,
+                    State::Working => Activity::Busy,
+                },
+            })
+            .collect()
     }
 
     /// Lines whose final pixels are in, and lines in the image.
