@@ -4,6 +4,7 @@ use clap::Parser as _;
 use std::process::ExitCode;
 use strahl_host::cli::{run, Cli};
 use strahl_host::util::text::printable;
+use strahl_host::util::usage::UsageError;
 
 /// The error and its causes, joined by `: `, leaving out a cause whose text the message already
 /// ends with (some errors repeat their source in their own message).
@@ -29,7 +30,25 @@ fn is_broken_pipe(err: &anyhow::Error) -> bool {
     })
 }
 
+/// Whether `args` run `render` with `-h` and no number after it: FART's height, mistaken for
+/// help.
+fn height_without_value(args: &[String]) -> bool {
+    args.get(1).is_some_and(|c| c == "render")
+        && args
+            .iter()
+            .enumerate()
+            .any(|(i, a)| a == "-h" && args.get(i + 1).is_none_or(|v| v.parse::<u32>().is_err()))
+}
+
 fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().collect();
+    if height_without_value(&args) {
+        eprintln!(
+            "error: -h is the image height (as in FART), and it needs a number, for example \
+             -h 480; for help use --help"
+        );
+        return ExitCode::from(2);
+    }
     // clap prints usage errors itself and exits with code 2 (0 for --help and --version).
     let cli = Cli::parse();
     match run(cli) {
@@ -38,7 +57,12 @@ fn main() -> ExitCode {
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
             eprintln!("error: {}", printable(&error_chain(&err)));
-            ExitCode::FAILURE
+            // 2 for what the command line asks wrongly, as clap's own errors; 1 for failures.
+            if err.chain().any(|c| c.is::<UsageError>()) {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
         }
     }
 }

@@ -1,56 +1,112 @@
-//! Image files: 24-bit uncompressed BMP or PNG, written atomically (through
-//! [`crate::formats::fs::write_atomically`]).
+//! Image files: the seed's 24-bit BMP, PNG with 8 or 16 bits per channel, binary PPM and
+//! 32-bit float OpenEXR, written atomically (through [`crate::formats::fs::write_atomically`]),
+//! or to standard output for `-o -`.
 //!
-//! The format follows the file name's extension, case-insensitively: `.bmp` gives a BMP, `.png` a
-//! PNG, and anything else is an error. [`check_output_path`] checks the name and the destination
-//! folder before any rendering starts, so a bad `-o` fails at once. [`write_image`] writes into a
-//! temporary file in the destination folder and renames it over the destination only when the
-//! image is complete, so a failed run never leaves a partial or empty image behind.
+//! The format is `--format`'s, else the file name's extension (case-insensitively); an unknown
+//! one is a usage error that lists the formats. [`check_output_path`] checks the name and the
+//! destination folder before any rendering starts, so a bad `-o` fails at once. [`write_image`]
+//! writes into a temporary file in the destination folder and renames it over the destination
+//! only when the image is complete, so a failed run never leaves a partial or empty image
+//! behind. Every 8-bit format quantises with [`Pixel::to_rgb8`]; PNG 16 and EXR carry the
+//! wire's 16-bit values (clamped to `[0, 1]` by the renderer, so EXR holds no value above 1).
 
 use crate::formats::fs::{destination_folder, write_atomically};
+use crate::util::usage::usage;
 use anyhow::{bail, Context as _};
+use std::io::Write as _;
 use std::path::Path;
 use strahl_core::render::pixel::Pixel;
 
 /// The image file formats the renderer writes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ImageKind {
-    /// Windows bitmap, 24 bits per pixel, uncompressed.
+    /// Windows bitmap, 24 bits per pixel, uncompressed (the seed's).
     Bmp,
     /// Portable Network Graphics, 8 bits per channel RGB.
     Png,
+    /// Portable Network Graphics, 16 bits per channel RGB: the wire's pixels as they are.
+    Png16,
+    /// Binary portable pixmap (P6), 8 bits per channel.
+    Ppm,
+    /// OpenEXR, 32-bit float RGB.
+    Exr,
 }
 
+/// Each format's `--format` name, the extension that picks it, and what it is.
+pub const FORMATS: [(&str, &str, ImageKind); 5] = [
+    ("bmp", "bmp", ImageKind::Bmp),
+    ("png", "png", ImageKind::Png),
+    ("png16", "png", ImageKind::Png16),
+    ("ppm", "ppm", ImageKind::Ppm),
+    ("exr", "exr", ImageKind::Exr),
+];
+
+/// The formats in words, for messages.
+pub const FORMAT_LIST: &str = "bmp (.bmp, the seed's 24-bit BMP), png (.png, 8 bits per \
+    channel), png16 (16 bits per channel, --format png16), ppm (.ppm, binary 8-bit), exr (.exr, \
+    32-bit float OpenEXR)";
+
 impl ImageKind {
+    /// The format `--format NAME` names.
+    ///
+    /// # Errors
+    /// An unknown name, with the list.
+    pub fn from_name(name: &str) -> Result<ImageKind, String> {
+        FORMATS
+            .iter()
+            .find(|(n, _, _)| n.eq_ignore_ascii_case(name))
+            .map(|&(_, _, kind)| kind)
+            .ok_or_else(|| format!("unknown image format `{name}`; Strahl writes {FORMAT_LIST}"))
+    }
+
     /// The `image` crate's format.
     fn format(self) -> image::ImageFormat {
         match self {
             ImageKind::Bmp => image::ImageFormat::Bmp,
-            ImageKind::Png => image::ImageFormat::Png,
+            ImageKind::Png | ImageKind::Png16 => image::ImageFormat::Png,
+            // (Written as P6 by `encode_to`.)
+            ImageKind::Ppm => image::ImageFormat::Pnm,
+            ImageKind::Exr => image::ImageFormat::OpenExr,
         }
     }
 }
 
-/// The image format for `path`'s extension.
+/// Whether `path` is `-`: standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
+}
+
+/// The image format for `path`: `format` when given, else the extension's (`-` is BMP unless
+/// `format` says otherwise).
 ///
 /// # Errors
-/// When the extension is neither `.bmp` nor `.png` (in any letter case).
-pub fn image_kind(path: &Path) -> anyhow::Result<ImageKind> {
+/// A usage error when the extension names no format Strahl writes.
+pub fn image_kind(path: &Path, format: Option<ImageKind>) -> anyhow::Result<ImageKind> {
+    if let Some(kind) = format {
+        return Ok(kind);
+    }
+    if is_stdout(path) {
+        return Ok(ImageKind::Bmp);
+    }
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("bmp") => Ok(ImageKind::Bmp),
-        Some("png") => Ok(ImageKind::Png),
-        Some(other) => bail!(
-            "{}: unknown image type `.{other}`; the output file name must end in .bmp or .png",
+    let found = FORMATS
+        .iter()
+        .find(|(_, e, _)| Some(*e) == ext.as_deref())
+        .map(|&(_, _, kind)| kind);
+    match (found, ext) {
+        (Some(kind), _) => Ok(kind),
+        (None, Some(other)) => Err(usage(format!(
+            "{}: unknown image type `.{other}`; Strahl writes {FORMAT_LIST}",
             path.display()
-        ),
-        None => bail!(
-            "{}: the output file name must end in .bmp or .png",
+        ))),
+        (None, None) => Err(usage(format!(
+            "{}: the output file name has no extension; Strahl writes {FORMAT_LIST} (or give \
+             --format)",
             path.display()
-        ),
+        ))),
     }
 }
 
@@ -59,8 +115,11 @@ pub fn image_kind(path: &Path) -> anyhow::Result<ImageKind> {
 ///
 /// # Errors
 /// A message naming the path and what is wrong with it.
-pub fn check_output_path(path: &Path) -> anyhow::Result<ImageKind> {
-    let kind = image_kind(path)?;
+pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Result<ImageKind> {
+    let kind = image_kind(path, format)?;
+    if is_stdout(path) {
+        return Ok(kind);
+    }
     let dir = destination_folder(path);
     match std::fs::metadata(&dir) {
         Ok(m) if m.is_dir() => {}
@@ -121,20 +180,85 @@ pub fn to_rgb_image(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result
         .context("cannot write the image: its pixel buffer does not match its size")
 }
 
-/// Writes `pixels` (row-major, top row first) as a `width × height` image to `path`: BMP or PNG
-/// by the extension, through a temporary file in the same folder that is renamed into place at
-/// the end.
+/// Writes `pixels` (row-major, top row first) as a `width × height` image of `kind` to `path`
+/// (`-`: standard output), through a temporary file in the same folder that is renamed into
+/// place at the end.
 ///
 /// # Errors
-/// A bad extension or folder (see [`check_output_path`]), a pixel count that does not match the
-/// size, or any I/O error, each naming `path`. On error no file is left at `path` (an existing
-/// file there is left as it was) and the temporary file is removed.
-pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result<()> {
-    let kind = check_output_path(path)?;
-    let img = to_rgb_image(width, height, pixels)?;
-    write_atomically(path, |w| {
-        img.write_to(w, kind.format())
-            .with_context(|| format!("{}: cannot write the image", path.display()))
+/// A bad folder (see [`check_output_path`]), a pixel count that does not match the size, or
+/// any I/O error, each naming `path`. On error no file is left at `path` (an existing file
+/// there is left as it was) and the temporary file is removed.
+pub fn write_image(
+    path: &Path,
+    kind: ImageKind,
+    width: u32,
+    height: u32,
+    pixels: &[Pixel],
+) -> anyhow::Result<()> {
+    check_output_path(path, Some(kind))?;
+    let img = encode_image(kind, width, height, pixels)?;
+    let failed = |e| anyhow::anyhow!("{}: cannot write the image: {e}", path.display());
+    if is_stdout(path) {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        encode_to(&img, kind, &mut bytes).map_err(failed)?;
+        let mut out = std::io::stdout().lock();
+        return out
+            .write_all(bytes.get_ref())
+            .and_then(|()| out.flush())
+            .context("cannot write the image to standard output");
+    }
+    write_atomically(path, |w| encode_to(&img, kind, w).map_err(failed))
+}
+
+/// Writes `img` to `w` as `kind`: PPM as binary `P6` (the `image` crate's default for PNM is
+/// PAM), the others by the `image` crate's format.
+fn encode_to(
+    img: &image::DynamicImage,
+    kind: ImageKind,
+    w: &mut (impl std::io::Write + std::io::Seek),
+) -> image::ImageResult<()> {
+    use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+    match kind {
+        ImageKind::Ppm => img.write_with_encoder(
+            PnmEncoder::new(w).with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary)),
+        ),
+        _ => img.write_to(w, kind.format()),
+    }
+}
+
+/// The `image` crate's image of `pixels` in the precision `kind` keeps.
+fn encode_image(
+    kind: ImageKind,
+    width: u32,
+    height: u32,
+    pixels: &[Pixel],
+) -> anyhow::Result<image::DynamicImage> {
+    let expected = width as usize * height as usize;
+    if pixels.len() != expected {
+        bail!(
+            "cannot write a {width}x{height} image from {} pixels ({expected} expected)",
+            pixels.len()
+        );
+    }
+    let mismatch =
+        || anyhow::anyhow!("cannot write the image: its pixel buffer does not match its size");
+    Ok(match kind {
+        ImageKind::Bmp | ImageKind::Png | ImageKind::Ppm => {
+            image::DynamicImage::ImageRgb8(to_rgb_image(width, height, pixels)?)
+        }
+        ImageKind::Png16 => {
+            let raw: Vec<u16> = pixels.iter().flat_map(|p| p.0).collect();
+            let img = image::ImageBuffer::from_raw(width, height, raw).ok_or_else(mismatch)?;
+            image::DynamicImage::ImageRgb16(img)
+        }
+        ImageKind::Exr => {
+            let raw: Vec<f32> = pixels
+                .iter()
+                .flat_map(|p| p.0.map(|c| f32::from(c) / 65535.0))
+                .collect();
+            let img = image::ImageBuffer::from_raw(width, height, raw).ok_or_else(mismatch)?;
+            image::DynamicImage::ImageRgb32F(img)
+        }
     })
 }
 
@@ -144,28 +268,50 @@ mod tests {
 
     #[test]
     fn extensions() {
-        assert_eq!(image_kind(Path::new("a.bmp")).ok(), Some(ImageKind::Bmp));
-        assert_eq!(image_kind(Path::new("a.BMP")).ok(), Some(ImageKind::Bmp));
+        let kind = |p: &str| image_kind(Path::new(p), None).ok();
+        assert_eq!(kind("a.bmp"), Some(ImageKind::Bmp));
+        assert_eq!(kind("a.BMP"), Some(ImageKind::Bmp));
+        assert_eq!(kind("dir/a.Png"), Some(ImageKind::Png));
+        assert_eq!(kind("a.ppm"), Some(ImageKind::Ppm));
+        assert_eq!(kind("a.exr"), Some(ImageKind::Exr));
+        assert_eq!(kind("-"), Some(ImageKind::Bmp));
         assert_eq!(
-            image_kind(Path::new("dir/a.Png")).ok(),
-            Some(ImageKind::Png)
+            image_kind(Path::new("a.png"), Some(ImageKind::Png16)).ok(),
+            Some(ImageKind::Png16)
         );
-        assert!(image_kind(Path::new("a.jpg")).is_err());
-        assert!(image_kind(Path::new("a")).is_err());
-        assert!(image_kind(Path::new("bmp")).is_err());
+        for bad in ["a.jpg", "a", "bmp"] {
+            let e = image_kind(Path::new(bad), None).expect_err(bad);
+            assert!(
+                e.is::<crate::util::usage::UsageError>(),
+                "{bad}: a usage error"
+            );
+            assert!(e.to_string().contains("png16"), "{e}");
+        }
+        assert_eq!(ImageKind::from_name("PNG16"), Ok(ImageKind::Png16));
+        assert!(ImageKind::from_name("jpeg").is_err());
     }
 
     #[test]
     fn writes_bmp_and_png_and_rejects_bad_sizes() -> anyhow::Result<()> {
         let dir = tempfile::tempdir()?;
         let pixels: Vec<Pixel> = (0..6u16).map(|i| Pixel([i * 10000, 65535, 0])).collect();
-        for name in ["x.bmp", "x.png"] {
+        for name in ["x.bmp", "x.png", "x.ppm"] {
             let path = dir.path().join(name);
-            write_image(&path, 3, 2, &pixels)?;
+            write_image(&path, image_kind(&path, None)?, 3, 2, &pixels)?;
             let img = image::open(&path)?.to_rgb8();
             assert_eq!(img.dimensions(), (3, 2));
             assert_eq!(img.get_pixel(2, 1).0, pixels[5].to_rgb8());
         }
+        let deep = dir.path().join("deep.png");
+        write_image(&deep, ImageKind::Png16, 3, 2, &pixels)?;
+        let img = image::open(&deep)?.to_rgb16();
+        assert_eq!(img.get_pixel(2, 1).0, pixels[5].0, "16 bits kept");
+        let hdr = dir.path().join("x.exr");
+        write_image(&hdr, ImageKind::Exr, 3, 2, &pixels)?;
+        let img = image::open(&hdr)?.to_rgb32f();
+        assert_eq!(img.get_pixel(1, 0).0, [10000.0 / 65535.0, 1.0, 0.0]);
+        let ppm = std::fs::read(dir.path().join("x.ppm"))?;
+        assert!(ppm.starts_with(b"P6\n3 2 255\n"), "binary PPM");
         let bmp = std::fs::read(dir.path().join("x.bmp"))?;
         assert_eq!(&bmp[..2], b"BM");
         assert_eq!(
@@ -180,16 +326,16 @@ mod tests {
         );
 
         let bad = dir.path().join("bad.bmp");
-        assert!(write_image(&bad, 4, 2, &pixels).is_err());
+        assert!(write_image(&bad, ImageKind::Bmp, 4, 2, &pixels).is_err());
         assert!(!bad.exists());
         let names: Vec<_> = std::fs::read_dir(dir.path())?.collect::<Result<_, _>>()?;
-        assert_eq!(names.len(), 2, "no temporary file is left behind");
+        assert_eq!(names.len(), 5, "no temporary file is left behind");
         Ok(())
     }
 
     #[test]
     fn missing_folder_is_named() {
-        let msg = match check_output_path(Path::new("/nonexistent-strahl-dir/x.bmp")) {
+        let msg = match check_output_path(Path::new("/nonexistent-strahl-dir/x.bmp"), None) {
             Ok(kind) => panic!("accepted as {kind:?}"),
             Err(e) => format!("{e:#}"),
         };

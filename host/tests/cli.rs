@@ -225,9 +225,12 @@ fn unknown_image_extension_fails_before_rendering() -> TestResult {
         dir.path(),
         &["-o", "x.jpg", "--width", "30000", "--height", "30000"],
     )?;
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2), "a usage error");
     let err = stderr(&out);
     assert!(err.contains("x.jpg") && err.contains(".png"), "{err}");
+    for format in ["bmp", "png16", "ppm", "exr"] {
+        assert!(err.contains(format), "the formats are listed: {err}");
+    }
     assert_eq!(listing(dir.path())?, before);
     Ok(())
 }
@@ -281,8 +284,13 @@ fn usage_errors_exit_2() -> TestResult {
 fn no_worker_at_all_is_an_error() -> TestResult {
     let dir = scene_dir(CONFIG, DATA)?;
     let out = render(dir.path(), &["--workers", "0"])?;
-    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(out.status.code(), Some(2), "a usage error");
     assert!(stderr(&out).contains("no worker"), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--worker HOST[:PORT]"),
+        "says how: {}",
+        stderr(&out)
+    );
     assert_eq!(listing(dir.path())?, names(&["scene.cfg", "room.txt"]));
     Ok(())
 }

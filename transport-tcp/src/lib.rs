@@ -29,16 +29,26 @@ const REDIAL_INTERVAL: Duration = Duration::from_millis(200);
 /// The port workers listen on and masters dial when an address names none.
 pub const DEFAULT_PORT: u16 = 7415;
 
+/// The forms an address takes, for error messages.
+pub const ADDRESS_FORMS: &str = "PORT, :PORT, HOST or HOST:PORT, for example 7415, :7415, \
+                                 node1, node1:7415, 0.0.0.0:7415 or [::1]:7415";
+
 /// `host`, `host:port`, `[v6]` or `[v6]:port` as `host:port`, with [`DEFAULT_PORT`] when no
-/// port is given: an address to dial.
+/// port is given, and `PORT` or `:PORT` as a port on this machine (`localhost:PORT`): an address
+/// to dial.
 ///
 /// # Errors
 /// A message if the text is empty, has spaces, or its port is not a number from 1 to 65535.
 pub fn parse_endpoint(text: &str) -> Result<String, String> {
-    parse_address(text, false)
+    let address = parse_address(text, false)?;
+    Ok(match address.strip_prefix(':') {
+        Some(port) => format!("localhost:{port}"),
+        None => address,
+    })
 }
 
-/// Like [`parse_endpoint`], for an address to listen on: port 0 (any free port) is allowed.
+/// Like [`parse_endpoint`], for an address to listen on: port 0 (any free port) is allowed,
+/// and `PORT` or `:PORT` is given back as `:PORT` (no host): the caller chooses the interfaces.
 ///
 /// # Errors
 /// A message if the text is empty, has spaces, or its port is not a number from 0 to 65535.
@@ -49,42 +59,61 @@ pub fn parse_listen_address(text: &str) -> Result<String, String> {
 fn parse_address(text: &str, allow_port_0: bool) -> Result<String, String> {
     let text = text.trim();
     if text.is_empty() || text.contains(char::is_whitespace) {
-        return Err(format!("`{text}` is not a host name or host:port"));
+        return Err(format!(
+            "`{text}` is not an address: expected {ADDRESS_FORMS}"
+        ));
     }
-    let (host, port) = if let Some(rest) = text.strip_prefix('[') {
-        let Some((v6, after)) = rest.split_once(']') else {
-            return Err(format!("`{text}`: missing `]` after an IPv6 address"));
-        };
-        match after.strip_prefix(':') {
-            Some(port) => (format!("[{v6}]"), Some(port)),
-            None if after.is_empty() => (format!("[{v6}]"), None),
-            None => return Err(format!("`{text}`: expected `:PORT` after `]`")),
-        }
-    } else {
-        match text.rsplit_once(':') {
-            Some((h, _)) if h.contains(':') => {
-                return Err(format!("`{text}`: write IPv6 addresses as [ADDRESS]:PORT"))
-            }
-            Some((h, p)) => (h.to_string(), Some(p)),
-            None => (text.to_string(), None),
-        }
-    };
+    let bare_port = text.strip_prefix(':').unwrap_or(text);
+    if !bare_port.is_empty() && bare_port.bytes().all(|b| b.is_ascii_digit()) {
+        return Ok(format!(":{}", parse_port(text, bare_port, allow_port_0)?));
+    }
+    let (host, port) = split_host_port(text)?;
     if host.is_empty() || host == "[]" {
-        return Err(format!("`{text}` names no host"));
+        return Err(format!("`{text}` names no host: expected {ADDRESS_FORMS}"));
     }
     let port = match port {
         None => DEFAULT_PORT,
-        Some(p) => match p.parse::<u16>() {
-            Ok(n) if n > 0 || allow_port_0 => n,
-            _ => {
-                let low = if allow_port_0 { 0 } else { 1 };
-                return Err(format!(
-                    "`{text}`: the port must be a number from {low} to 65535"
-                ));
-            }
-        },
+        Some(p) => parse_port(text, p, allow_port_0)?,
     };
     Ok(format!("{host}:{port}"))
+}
+
+/// `text`'s host and port, if it names one (`[v6]` keeps its brackets).
+fn split_host_port(text: &str) -> Result<(String, Option<&str>), String> {
+    if let Some(rest) = text.strip_prefix('[') {
+        let Some((v6, after)) = rest.split_once(']') else {
+            return Err(format!(
+                "`{text}`: missing `]` after an IPv6 address (for example [::1]:7415)"
+            ));
+        };
+        return match after.strip_prefix(':') {
+            Some(port) => Ok((format!("[{v6}]"), Some(port))),
+            None if after.is_empty() => Ok((format!("[{v6}]"), None)),
+            None => Err(format!(
+                "`{text}`: expected `:PORT` after `]` (for example [::1]:7415)"
+            )),
+        };
+    }
+    match text.rsplit_once(':') {
+        Some((h, _)) if h.contains(':') => Err(format!(
+            "`{text}`: write IPv6 addresses in brackets, for example [::1]:7415"
+        )),
+        Some((h, p)) => Ok((h.to_string(), Some(p))),
+        None => Ok((text.to_string(), None)),
+    }
+}
+
+/// The port `p` of address `text`.
+fn parse_port(text: &str, p: &str, allow_port_0: bool) -> Result<u16, String> {
+    match p.parse::<u16>() {
+        Ok(n) if n > 0 || allow_port_0 => Ok(n),
+        _ => {
+            let low = if allow_port_0 { 0 } else { 1 };
+            Err(format!(
+                "`{text}`: the port must be a number from {low} to 65535 (for example 7415)"
+            ))
+        }
+    }
 }
 
 /// Connects to `endpoint` (`host:port`), trying each address it resolves to, each within
@@ -200,8 +229,14 @@ mod tests {
             Ok("0.0.0.0:0")
         );
         assert!(parse_listen_address("0.0.0.0:65536").is_err());
+        assert_eq!(parse_endpoint("7418").as_deref(), Ok("localhost:7418"));
+        assert_eq!(parse_endpoint(":7418").as_deref(), Ok("localhost:7418"));
+        assert_eq!(parse_listen_address("7418").as_deref(), Ok(":7418"));
+        assert_eq!(parse_listen_address(":0").as_deref(), Ok(":0"));
+        assert!(parse_endpoint("0").is_err());
+        assert!(parse_endpoint("70000").is_err());
         for bad in [
-            "", "a b", "h:0", "h:70000", "h:x", "::1", "[::1", "[::1]x", ":5",
+            "", "a b", "h:0", "h:70000", "h:x", "::1", "[::1", "[::1]x", ":", ":x",
         ] {
             assert!(parse_endpoint(bad).is_err(), "{bad}");
         }

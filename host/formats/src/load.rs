@@ -164,10 +164,16 @@ fn file_paths(
     Ok((output, data_path))
 }
 
+/// What Strahl reads, in words, for the error about a file it does not.
+pub const SCENE_FORMATS: &str = "the seed's configuration files (.cfg, such as raytracer.cfg, \
+    with the data file they name), FART scenes (.fart) and NFF scenes (.nff); an OBJ mesh is \
+    rendered through `strahl convert MODEL.obj -o DATA.txt` or a .fart scene's \
+    `mesh { file \"MODEL.obj\" }`";
+
 /// Which reader a scene file needs, by its extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneFormat {
-    /// The seed's configuration file (any extension but the ones below).
+    /// The seed's configuration file, `.cfg`.
     SeedConfig,
     /// FART's scene language, `.fart`.
     Fart,
@@ -177,15 +183,24 @@ pub enum SceneFormat {
 
 impl SceneFormat {
     /// The format of `path`, by its extension (case-insensitive).
-    pub fn of(path: &Path) -> SceneFormat {
+    ///
+    /// # Errors
+    /// An extension Strahl reads no scene from, in words that list what it reads.
+    pub fn of(path: &Path) -> Result<SceneFormat, String> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(str::to_ascii_lowercase);
         match ext.as_deref() {
-            Some("fart") => SceneFormat::Fart,
-            Some("nff") => SceneFormat::Nff,
-            _ => SceneFormat::SeedConfig,
+            Some("cfg") => Ok(SceneFormat::SeedConfig),
+            Some("fart") => Ok(SceneFormat::Fart),
+            Some("nff") => Ok(SceneFormat::Nff),
+            Some(other) => Err(format!(
+                "Strahl reads no scene from a .{other} file; it reads {SCENE_FORMATS}"
+            )),
+            None => Err(format!(
+                "the scene's name has no extension; Strahl reads {SCENE_FORMATS}"
+            )),
         }
     }
 }
@@ -198,7 +213,11 @@ impl SceneFormat {
 /// # Errors
 /// A [`LoadError`] naming the file (and line, and for `.fart` the column) at fault.
 pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, LoadError> {
-    let mut desc = match SceneFormat::of(path) {
+    let format = SceneFormat::of(path).map_err(|message| LoadError::File {
+        path: path.to_path_buf(),
+        message,
+    })?;
+    let mut desc = match format {
         SceneFormat::SeedConfig => return load_config_scene(path, overrides),
         SceneFormat::Fart => crate::fart::load_fart(path)?,
         SceneFormat::Nff => crate::nff::load_nff(path)?,

@@ -37,7 +37,7 @@ pub struct Cli {
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Render a scene (.fart, .nff, or the seed's configuration file) to an image.
-    Render(render::RenderArgs),
+    Render(Box<render::RenderArgs>),
     /// Convert a Wavefront OBJ mesh to the seed's data format, with a raytracer.cfg beside it.
     Convert(convert::ConvertArgs),
     /// Write a generated scene: the demo room's ROOM.txt or the large benchmark scene.

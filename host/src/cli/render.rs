@@ -12,16 +12,18 @@ use super::progress::Progress;
 use super::summary::{RenderStats, RenderSummary};
 use crate::cluster::checkpoint::{checkpoint_path, Checkpoint, Record};
 use crate::cluster::executor::{start_workers, WorkerSources};
-use crate::cluster::job::ClusterJob;
+use crate::cluster::job::{ClusterError, ClusterJob};
 use crate::cluster::job::{PROBE_INTERVAL, WINDOW, WORKER_TIMEOUT};
 use crate::cluster::master::{run_master_with, ClusterImage, FinalLine, Hooks, MasterOptions};
 use crate::cluster::prepared::{PrepareError, PreparedScene};
-use crate::cluster::report::WorkerState;
+use crate::cluster::region::Region;
 use crate::cluster::report::WorkerTable;
+use crate::cluster::report::{Activity, WorkerState};
 use crate::formats::fs::write_atomically;
-use crate::formats::load::{load_scene, LoadedScene, Overrides};
-use crate::output::{check_output_path, image_memory, write_image};
+use crate::formats::load::{load_scene, LoadedScene, Overrides, SceneFormat};
+use crate::output::{check_output_path, image_memory, write_image, ImageKind};
 use crate::util::secret::{load_secret, Secret};
+use crate::util::usage::usage;
 use crate::view::events::Status;
 use crate::view::hub::Hub;
 use crate::view::server::{ViewServer, DEFAULT_VIEW};
@@ -116,9 +118,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "on|off", value_parser = parse_switch)]
     pub reflections: Option<bool>,
 
-    /// In-process workers, 0 to 1024 [default: the number of CPUs, or 0 when other workers are
-    /// named].
-    #[arg(long, value_name = "N", value_parser = worker_count())]
+    /// In-process workers (threads of this process), 0 to 1024 [default: the number of CPUs, or
+    /// 0 when other workers are named].
+    #[arg(long, visible_alias = "threads", value_name = "N", value_parser = worker_count())]
     pub workers: Option<u32>,
 
     /// Whether the data file's _TR point and shader indices count from 0 or 1, instead of
@@ -139,8 +141,24 @@ pub struct RenderArgs {
     /// Watch the render in a browser: serve a page at ADDR (PORT, HOST:PORT; port 0 picks one)
     /// and print its URL; after the render the page keeps serving until Ctrl-C. Beyond this
     /// machine only with a secret (the URL then carries a key) or --insecure.
-    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = DEFAULT_VIEW)]
+    #[arg(long, value_name = "ADDR", num_args = 0..=1, default_missing_value = DEFAULT_VIEW,
+          value_parser = view_address_arg)]
     pub view: Option<String>,
+
+    /// Render only columns X0..X1 of lines Y0..Y1 (pixels, ends exclusive; POV-Ray's +SR/+ER)
+    /// and write that rectangle; its pixels are those of a full render.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = Region::parse)]
+    pub region: Option<Region>,
+
+    /// With --region, write the whole image, everything outside the region in the background
+    /// colour.
+    #[arg(long, requires = "region")]
+    pub keep_size: bool,
+
+    /// The image format instead of the output name's extension: bmp, png, png16 (16 bits per
+    /// channel), ppm or exr; with `-o -` the image goes to standard output [default: bmp].
+    #[arg(long, value_name = "FORMAT", value_parser = ImageKind::from_name)]
+    pub format: Option<ImageKind>,
 
     /// Workers outside this process and how the master treats them.
     #[command(flatten)]
@@ -238,7 +256,7 @@ pub fn parse_switch(s: &str) -> Result<bool, String> {
 #[derive(Clone, Debug, Default, Args)]
 pub struct ClusterArgs {
     /// A TCP worker listening at HOST[:PORT] (default port 7415); repeatable.
-    #[arg(long = "worker", value_name = "HOST[:PORT]")]
+    #[arg(long = "worker", value_name = "HOST[:PORT]", value_parser = endpoint_arg)]
     pub worker: Vec<String>,
 
     /// A hosts file (one HOST[:PORT] per line, `#` comments): the workers to dial, or with
@@ -248,7 +266,7 @@ pub struct ClusterArgs {
 
     /// Accept workers that dial in (`strahl worker --connect`) at HOST[:PORT]; port 0 picks a
     /// free one.
-    #[arg(long, value_name = "HOST[:PORT]")]
+    #[arg(long, value_name = "HOST[:PORT]", value_parser = listen_arg)]
     pub listen: Option<String>,
 
     /// Start one worker per hosts-file line with this command; `{host}` is replaced by the
@@ -295,6 +313,36 @@ pub struct ClusterArgs {
     /// others; also how long a listening master waits with no worker.
     #[arg(long, value_name = "SECS", default_value_t = WORKER_TIMEOUT.as_secs_f64(), value_parser = positive_seconds)]
     pub worker_timeout: f64,
+}
+
+/// Parses an address to dial (`PORT`, `:PORT`, `HOST`, `HOST:PORT`): a usage error otherwise.
+///
+/// # Errors
+/// What is wrong, with the forms an address takes.
+pub fn endpoint_arg(s: &str) -> Result<String, String> {
+    strahl_tcp::parse_endpoint(s)
+}
+
+/// Parses an address to listen on (port 0 allowed): a usage error otherwise.
+///
+/// # Errors
+/// What is wrong, with the forms an address takes.
+pub fn listen_arg(s: &str) -> Result<String, String> {
+    strahl_tcp::parse_listen_address(s)
+}
+
+/// Parses `--view`'s address: a usage error otherwise.
+///
+/// # Errors
+/// What is wrong, with examples.
+pub fn view_address_arg(s: &str) -> Result<String, String> {
+    crate::view::server::view_address(s)
+        .map(|a| a.to_string())
+        .map_err(|e| {
+            e.to_string()
+                .trim_start_matches(&format!("--view {s}: "))
+                .to_string()
+        })
 }
 
 /// Parses a number from 0 to 1.
@@ -394,10 +442,21 @@ impl RenderArgs {
 /// no image is written).
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
+    scene_format(&args.config)?;
+    if args.workers == Some(0) && !args.cluster.has_remote() {
+        return Err(usage(
+            "--workers 0 leaves no worker: name workers with --worker HOST[:PORT], --hosts FILE, \
+             --listen ADDR (workers dial in), --serial PATH, or give --workers N for threads here",
+        ));
+    }
     let loaded = load_scene(&args.config, &args.overrides())?;
     let load = start.elapsed();
     // Fail before the long part if the image or the statistics cannot be written.
-    check_output_path(&loaded.output)?;
+    let kind = check_output_path(&loaded.output, args.format)?;
+    if let Some(r) = args.region {
+        let s = &loaded.desc.settings;
+        r.check(s.width, s.height).map_err(usage)?;
+    }
     let secret = load_secret(args.cluster.secret_file.as_deref())?;
     check_image_memory(&loaded, crate::util::sys::available_memory())?;
     if let Some(stats) = &args.stats_json {
@@ -428,7 +487,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     };
     warn_about_scene(args, &loaded, &prepared, &warn);
     let render_start = Instant::now();
-    let image = render_and_write(args, &loaded, &prepared, secret, &progress, &warn, hub);
+    let output = Output {
+        path: &loaded.output,
+        kind,
+    };
+    let image = render_and_write(args, &output, &prepared, secret, &progress, &warn, hub);
     if let Some(hub) = hub {
         hub.end(match &image {
             Ok(_) => Status::Done {
@@ -440,7 +503,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         });
     }
     let image = image?;
-    let render = render_start.elapsed();
+    // Waiting for workers and the scene's transfer are not tracing.
+    let render = image
+        .first_request
+        .map_or_else(|| render_start.elapsed(), |t| t.max(render_start).elapsed());
 
     let summary = RenderSummary {
         width: settings.width,
@@ -492,6 +558,15 @@ fn start_view(
     Ok((server, hub))
 }
 
+/// Checks that Strahl reads scenes from `path`'s extension: a usage error that lists what it
+/// reads otherwise.
+///
+/// # Errors
+/// The usage error.
+pub fn scene_format(path: &Path) -> anyhow::Result<SceneFormat> {
+    SceneFormat::of(path).map_err(|e| usage(format!("{}: {e}", path.display())))
+}
+
 /// Refuses, before anything is built, an image whose pixels cannot fit in the memory the system
 /// reports available (`have`; `None`: it does not say).
 fn check_image_memory(loaded: &LoadedScene, have: Option<u64>) -> anyhow::Result<()> {
@@ -520,7 +595,7 @@ fn check_image_memory(loaded: &LoadedScene, have: Option<u64>) -> anyhow::Result
 /// then says how to resume), the image that cannot be written.
 fn render_and_write(
     args: &RenderArgs,
-    loaded: &LoadedScene,
+    output: &Output<'_>,
     prepared: &PreparedScene,
     secret: Option<Secret>,
     progress: &Progress,
@@ -528,14 +603,15 @@ fn render_and_write(
     hub: Option<&Hub>,
 ) -> anyhow::Result<ClusterImage> {
     let job = prepared.job();
-    let (checkpoint, done) = open_checkpoint(args.resume, &loaded.output, &job)?;
-    if !done.is_empty() && !args.quiet {
+    let (checkpoint, kept) = open_checkpoint(args.resume, output.path, &job)?;
+    if !kept.is_empty() && !args.quiet {
         progress.println(&format!(
             "resuming: {} results kept in {}",
-            done.len(),
+            kept.len(),
             checkpoint.path().display()
         ));
     }
+    let done = [lines_outside(args.region, prepared, &job), kept].concat();
     let checkpoint = Mutex::new(Some(checkpoint));
     let record = |task: u32, rays: RayCounts, pixels: &[Pixel]| {
         record_result(&checkpoint, task, rays, pixels, warn);
@@ -558,7 +634,12 @@ fn render_and_write(
             h.line(&line);
         }
     };
+    if let Some(acceptor) = &workers.acceptor {
+        progress.println(&format!("listening for workers on {}", acceptor.address));
+        progress.waiting_on(&acceptor.address.to_string());
+    }
     let on_tick = |w: &[WorkerState]| {
+        progress.tick(w.iter().filter(|w| w.activity != Activity::Lost).count());
         if let Some(h) = hub {
             h.workers(w);
         }
@@ -568,7 +649,7 @@ fn render_and_write(
         log: warn,
         on_result: Some(&record),
         on_final: hub.map(|_| &on_final as _),
-        on_tick: hub.map(|_| &on_tick as _),
+        on_tick: Some(&on_tick),
         resume: &done,
         stop: Some(stop_on_ctrl_c()),
     };
@@ -580,19 +661,77 @@ fn render_and_write(
         &hooks,
     );
     progress.finish();
+    let listened = workers.acceptor.as_ref().map(|a| a.address);
     drop(workers);
     let checkpoint = take(checkpoint);
     let image = match image {
         Ok(image) => image,
+        Err(ClusterError::AllWorkersLost { workers, .. }) if workers.is_empty() => {
+            let why = match listened {
+                Some(address) => anyhow!(
+                    "no worker joined at {address} within {} s (--worker-timeout); start \
+                     workers with `strahl worker --connect {address}`",
+                    args.cluster.worker_timeout
+                ),
+                None => anyhow!("no worker to render with"),
+            };
+            return Err(with_resume_hint(why, checkpoint));
+        }
         Err(e) => return Err(with_resume_hint(e.into(), checkpoint)),
     };
-    let s = prepared.scene.settings;
-    write_image(&loaded.output, s.width, s.height, &image.pixels)?;
+    write_output(args.region, args.keep_size, output, prepared, &image.pixels)?;
     // (None: writing it failed, as was warned.)
     if let Some(c) = checkpoint {
         c.remove()?;
     }
     Ok(image)
+}
+
+/// Where the image goes and in which format.
+struct Output<'a> {
+    path: &'a Path,
+    kind: ImageKind,
+}
+
+/// The lines outside `region` as done, with the background's pixels (none with adaptive
+/// multisampling, whose decisions need every line's pixels).
+fn lines_outside(
+    region: Option<Region>,
+    prepared: &PreparedScene,
+    job: &ClusterJob,
+) -> Vec<Record> {
+    let s = prepared.scene.settings;
+    match region {
+        Some(r) if job.adaptive.is_none() => {
+            r.outside(s.width, s.height, Pixel::from_color(s.background))
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// Writes the image, or with `region` its rectangle (`keep_size`: the whole image with the rest
+/// in the background colour).
+fn write_output(
+    region: Option<Region>,
+    keep_size: bool,
+    output: &Output<'_>,
+    prepared: &PreparedScene,
+    pixels: &[Pixel],
+) -> anyhow::Result<()> {
+    let s = prepared.scene.settings;
+    let (kind, path) = (output.kind, output.path);
+    match region {
+        None => write_image(path, kind, s.width, s.height, pixels),
+        Some(r) if keep_size => {
+            let mut full = pixels.to_vec();
+            r.mask(s.width, &mut full, Pixel::from_color(s.background));
+            write_image(path, kind, s.width, s.height, &full)
+        }
+        Some(r) => {
+            let (w, h) = r.size();
+            write_image(path, kind, w, h, &r.crop(s.width, pixels))
+        }
+    }
 }
 
 /// The checkpoint out of its lock.

@@ -21,7 +21,8 @@ pub struct ViewArgs {
     pub scene: PathBuf,
 
     /// Where to serve the page: PORT or HOST:PORT (port 0 picks one).
-    #[arg(value_name = "ADDR", default_value = DEFAULT_VIEW)]
+    #[arg(value_name = "ADDR", default_value = DEFAULT_VIEW,
+          value_parser = super::render::view_address_arg)]
     pub address: String,
 
     /// Write the images here instead of the scene's output file.
@@ -54,6 +55,7 @@ pub fn run(args: &ViewArgs) -> anyhow::Result<()> {
         output: args.output.clone(),
         ..Overrides::default()
     };
+    super::render::scene_format(&args.scene)?;
     let loaded = load_scene(&args.scene, &overrides)?;
     let secret = load_secret(args.secret_file.as_deref())?;
     let hub = Hub::new();

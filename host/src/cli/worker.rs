@@ -12,7 +12,7 @@
 //! master's side in [`crate::cluster`]. The host name it defaults to comes from
 //! [`crate::util::sys`], shared with the master.
 
-use crate::util::secret::{check_exposure, load_secret, random_nonce, Secret};
+use crate::util::secret::{listen_endpoint, load_secret, random_nonce, Secret};
 use crate::util::sys::{available_memory, cut_name, host_name};
 use anyhow::{anyhow, Context as _};
 use clap::{ArgGroup, Args};
@@ -29,11 +29,11 @@ use strahl_tcp::SessionError;
 pub struct WorkerArgs {
     /// Listen for masters at HOST[:PORT] (default port 7415; port 0 picks a free one, printed on
     /// stderr) and serve them one after another.
-    #[arg(long, value_name = "HOST[:PORT]")]
+    #[arg(long, value_name = "HOST[:PORT]", value_parser = super::render::listen_arg)]
     pub listen: Option<String>,
 
     /// Dial the master listening at HOST[:PORT], serve its render, then exit.
-    #[arg(long, value_name = "HOST[:PORT]")]
+    #[arg(long, value_name = "HOST[:PORT]", value_parser = super::render::endpoint_arg)]
     pub connect: Option<String>,
 
     /// Serve masters on the serial port at PATH.
@@ -135,9 +135,8 @@ fn serve_listening(
     cache: &mut SceneCache,
 ) -> anyhow::Result<()> {
     let name = node.name;
-    let endpoint =
-        strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen: {e}"))?;
-    check_exposure(
+    let endpoint = strahl_tcp::parse_listen_address(listen).map_err(|e| anyhow!("--listen {e}"))?;
+    let endpoint = listen_endpoint(
         &endpoint,
         node.secret.is_some(),
         args.insecure,
@@ -199,7 +198,8 @@ pub fn run(args: &WorkerArgs) -> anyhow::Result<()> {
     if let Some(listen) = &args.listen {
         serve_listening(args, listen, &node, &mut cache)?;
     } else if let Some(master) = &args.connect {
-        let endpoint = strahl_tcp::parse_endpoint(master).map_err(|e| anyhow!("--connect: {e}"))?;
+        let endpoint = strahl_tcp::parse_endpoint(master).map_err(|e| anyhow!("--connect {e}"))?;
+        eprintln!("strahl worker {name} ({threads} threads): dialling the master at {endpoint}");
         let outcome = strahl_tcp::dial(
             &endpoint,
             &node,

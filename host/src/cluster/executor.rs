@@ -9,7 +9,7 @@ use crate::cluster::link::Link;
 use crate::cluster::local::spawn_local_workers;
 use crate::cluster::prepared::PreparedScene;
 use crate::formats::hosts::{read_hosts_file, HostEntry};
-use crate::util::secret::check_exposure;
+use crate::util::secret::listen_endpoint;
 use crate::util::sys::{CONNECT_TIMEOUT, POLL_INTERVAL};
 use anyhow::{anyhow, bail, Context as _};
 use nix::sys::signal::{killpg, Signal};
@@ -200,6 +200,7 @@ pub fn start_workers(
     if args.launch.is_none() {
         dial.extend(hosts.iter().map(|h| h.endpoint.clone()));
     }
+    let dial = once_each(dial, warn);
     let mut serial = Vec::new();
     for spec in &args.serial {
         serial.push(strahl_serial::parse_port_spec(spec).map_err(|e| anyhow!("--serial {e}"))?);
@@ -210,14 +211,15 @@ pub fn start_workers(
         listen_and_launch(args, &hosts, others, &mut w, warn)?;
     }
 
+    // Why each named worker could not be used: a warning while others render, the error's
+    // reasons when none can (so `-q`, which hides warnings, still says why).
+    let mut unreachable = Vec::new();
     for endpoint in dial {
         match strahl_tcp::connect(&endpoint, CONNECT_TIMEOUT)
             .and_then(|s| Link::from_tcp(endpoint.clone(), s))
         {
             Ok(link) => w.links.push(link),
-            Err(e) => warn(&format!(
-                "cannot reach worker {endpoint}: {e}; going on without it"
-            )),
+            Err(e) => unreachable.push(format!("cannot reach worker {endpoint}: {e}")),
         }
     }
     for (path, baud) in serial {
@@ -225,13 +227,17 @@ pub fn start_workers(
             .and_then(|port| Link::from_serial(path.clone(), port))
         {
             Ok(link) => w.links.push(link),
-            Err(e) => warn(&format!(
-                "cannot open serial worker {path}: {e}; going on without it"
-            )),
+            Err(e) => unreachable.push(format!("cannot open serial worker {path}: {e}")),
         }
     }
     if w.links.is_empty() && w.joins.is_none() {
-        bail!("no worker could be reached, so nothing can be rendered");
+        bail!(
+            "no worker could be reached, so nothing can be rendered ({})",
+            unreachable.join("; ")
+        );
+    }
+    for why in unreachable {
+        warn(&format!("{why}; going on without it"));
     }
     Ok(w)
 }
@@ -257,14 +263,13 @@ fn listen_and_launch(
     warn: &dyn Fn(&str),
 ) -> anyhow::Result<()> {
     // Without a secret, a master that listens for workers listens on this machine only.
-    let default = if args.secret {
-        "0.0.0.0:0"
-    } else {
-        "127.0.0.1:0"
-    };
-    let spec = args.listen.as_deref().unwrap_or(default);
+    let spec = args.listen.as_deref().unwrap_or(":0");
     let endpoint = strahl_tcp::parse_listen_address(spec).map_err(|e| anyhow!("--listen {e}"))?;
-    check_exposure(&endpoint, args.secret, args.insecure, "this master")?;
+    let endpoint = if args.listen.is_none() && !args.secret {
+        "127.0.0.1:0".to_string()
+    } else {
+        listen_endpoint(&endpoint, args.secret, args.insecure, "this master")?
+    };
     let (acceptor, joins) = accept_workers(&endpoint)?;
     if let Some(template) = &args.launch {
         let master = if acceptor.address.ip().is_unspecified() {
@@ -284,6 +289,30 @@ fn listen_and_launch(
     w.acceptor = Some(acceptor);
     w.joins = Some(joins);
     Ok(())
+}
+
+/// `endpoints` with each worker once: one named twice (the same text, or names that resolve to
+/// the same address, as `localhost:7415` and `127.0.0.1:7415`) is dialled once, with a warning.
+fn once_each(endpoints: Vec<String>, warn: &dyn Fn(&str)) -> Vec<String> {
+    use std::net::ToSocketAddrs as _;
+    let mut seen: Vec<(String, Option<std::net::SocketAddr>)> = Vec::new();
+    let mut out = Vec::new();
+    for e in endpoints {
+        let resolved = e.to_socket_addrs().ok().and_then(|mut a| a.next());
+        let twin = seen
+            .iter()
+            .find(|(text, addr)| *text == e || (resolved.is_some() && *addr == resolved));
+        match twin {
+            Some((first, _)) => warn(&format!(
+                "the worker at {e} is named twice (also as {first}); it is used once"
+            )),
+            None => {
+                seen.push((e.clone(), resolved));
+                out.push(e);
+            }
+        }
+    }
+    out
 }
 
 /// Listens at `endpoint` and sends a link for each worker that connects, until dropped; at most

@@ -97,6 +97,9 @@ pub struct ClusterImage {
     pub rays: RayCounts,
     /// What each worker did, in the order they joined.
     pub workers: Vec<WorkerReport>,
+    /// When the first line was asked of a worker (the time before it was spent waiting for
+    /// workers and the scene's transfer; `None` if every line was resumed).
+    pub first_request: Option<std::time::Instant>,
 }
 
 /// Why a distributed render failed.

@@ -36,6 +36,7 @@
 //! - [`faults`]: seeded faults (drop, duplicate, corrupt, split, delay, disconnect) over any
 //!   link, for tests.
 //! - [`checkpoint`]: the results used so far, in a file beside the output, for `--resume`.
+//! - [`region`]: `--region`: the lines outside taken as done, the columns outside masked.
 //! - `verify`: `--verify`'s bookkeeping: sampled tasks, held results, who delivered what.
 
 pub(crate) mod assembly;
@@ -50,6 +51,7 @@ pub mod master;
 pub mod model;
 pub mod pipe;
 pub mod prepared;
+pub mod region;
 pub mod report;
 pub mod schedule;
 pub(crate) mod session;

@@ -109,14 +109,24 @@ impl WorkerReport {
     }
 }
 
+/// The widest worker name the table shows in full.
+const NAME_WIDTH: usize = 40;
+
 /// The per-worker table printed after a render.
 pub struct WorkerTable<'a>(pub &'a [WorkerReport]);
 
 impl fmt::Display for WorkerTable<'_> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let names = unique_names(self.0);
+        let width = names
+            .iter()
+            .map(|n| n.chars().count())
+            .max()
+            .unwrap_or(0)
+            .clamp(12, NAME_WIDTH);
         writeln!(
             f,
-            "{:<24} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8} {:>15} {:>15} {:>8} {:>7}  status",
+            "{:<width$} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8} {:>15} {:>15} {:>8} {:>7}  status",
             "worker",
             "link",
             "thr",
@@ -130,13 +140,13 @@ impl fmt::Display for WorkerTable<'_> {
             "reissued",
             "dropped"
         )?;
-        for w in self.0 {
+        for (w, name) in self.0.iter().zip(names) {
             let secs = w.busy.as_secs_f64();
             let thread_secs = secs * f64::from(w.threads.max(1));
             writeln!(
                 f,
-                "{:<24} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8.2} {:>15} {:>15} {:>8} {:>7}  {}",
-                truncate(&w.name, 24),
+                "{:<width$} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8.2} {:>15} {:>15} {:>8} {:>7}  {}",
+                truncate(&name, NAME_WIDTH),
                 w.kind.to_string(),
                 w.threads,
                 w.lines,
@@ -167,6 +177,22 @@ impl fmt::Display for WorkerTable<'_> {
         }
         Ok(())
     }
+}
+
+/// Each worker's name as tables show it: its own where no other worker has it, else
+/// `name@address`.
+pub fn unique_names(workers: &[WorkerReport]) -> Vec<String> {
+    workers
+        .iter()
+        .map(|w| {
+            let shared = workers.iter().filter(|o| o.name == w.name).count() > 1;
+            if shared && w.name != w.address {
+                format!("{}@{}", w.name, w.address)
+            } else {
+                w.name.clone()
+            }
+        })
+        .collect()
 }
 
 fn truncate(s: &str, n: usize) -> String {

@@ -209,6 +209,8 @@ pub(crate) struct Session<'a> {
     on_final: Option<OnFinal<'a>>,
     /// The worker whose result last went into each line (`None`: resumed or the master's own).
     authors: Vec<Option<usize>>,
+    /// When the first line was asked for.
+    first_request: Option<Instant>,
 }
 
 /// A line whose pixels are final, as [`OnFinal`] is told.
@@ -267,6 +269,7 @@ impl<'a> Session<'a> {
             on_result: None,
             on_final: None,
             authors: vec![None; job.height as usize],
+            first_request: None,
         }
     }
 
@@ -1013,6 +1016,7 @@ impl<'a> Session<'a> {
 
     /// Sends one request for `tasks` (consecutive first passes, or one task) to worker `id`.
     fn request(&mut self, id: usize, tasks: &[Task], now: Instant, wire: &mut dyn Wire) {
+        self.first_request.get_or_insert(now);
         let peer = &mut self.peers[id];
         let seq = peer.next_seq;
         peer.next_seq += 1;
@@ -1102,6 +1106,7 @@ impl<'a> Session<'a> {
             pixels,
             rays,
             workers,
+            first_request: self.first_request,
         })
     }
 }

@@ -95,6 +95,36 @@ pub fn is_loopback(address: &str) -> bool {
             .is_ok_and(|ip| ip.is_loopback())
 }
 
+/// Where to listen for `endpoint` as [`strahl_tcp::parse_listen_address`] gives it: an
+/// address without a host (`PORT`, `:PORT`) means every interface with a secret and this
+/// machine only without one (which `who` says); an address with a host goes through
+/// [`check_exposure`].
+///
+/// # Errors
+/// As [`check_exposure`].
+pub fn listen_endpoint(
+    endpoint: &str,
+    secret: bool,
+    insecure: bool,
+    who: &str,
+) -> anyhow::Result<String> {
+    let Some(port) = endpoint.strip_prefix(':') else {
+        check_exposure(endpoint, secret, insecure, who)?;
+        return Ok(endpoint.to_string());
+    };
+    if secret || insecure {
+        if !secret {
+            check_exposure(&format!("0.0.0.0:{port}"), secret, insecure, who)?;
+        }
+        return Ok(format!("0.0.0.0:{port}"));
+    }
+    eprintln!(
+        "note: without a shared secret {who} listens on this machine only (127.0.0.1:{port}); \
+         give --secret-file FILE (or STRAHL_SECRET) to listen on every interface"
+    );
+    Ok(format!("127.0.0.1:{port}"))
+}
+
 /// Refuses to listen beyond this machine without a secret unless `--insecure`, and warns when
 /// it does.
 ///

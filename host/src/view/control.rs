@@ -122,7 +122,7 @@ impl Renders {
         stop: &AtomicBool,
     ) -> anyhow::Result<String> {
         let loaded = self.load(settings)?;
-        check_output_path(&loaded.output)?;
+        let kind = check_output_path(&loaded.output, None)?;
         let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default())
             .map_err(|e| anyhow!("{}: {e}", loaded.data_path.display()))?;
         let s = prepared.scene.settings;
@@ -154,7 +154,7 @@ impl Renders {
         };
         let links = std::mem::take(&mut workers.links);
         let image = run_master_with(&prepared.job(), links, None, &self.master, &hooks)?;
-        write_image(&loaded.output, s.width, s.height, &image.pixels)?;
+        write_image(&loaded.output, kind, s.width, s.height, &image.pixels)?;
         Ok(loaded.output.display().to_string())
     }
 
