@@ -9,8 +9,11 @@ mod support;
 use std::process::{Command, Stdio};
 use support::{room_config, TestResult, BIN};
 
-/// Runs `strahl ARGS`; its exit code, stdout and stderr.
-fn strahl(args: &[&str]) -> Result<(Option<i32>, Vec<u8>, String), Box<dyn std::error::Error>> {
+/// A finished run: its exit code, stdout and stderr.
+type Ran = Result<(Option<i32>, Vec<u8>, String), Box<dyn std::error::Error>>;
+
+/// Runs `strahl ARGS`.
+fn strahl(args: &[&str]) -> Ran {
     let out = Command::new(BIN).args(args).stdin(Stdio::null()).output()?;
     Ok((
         out.status.code(),
@@ -20,10 +23,7 @@ fn strahl(args: &[&str]) -> Result<(Option<i32>, Vec<u8>, String), Box<dyn std::
 }
 
 /// The room at 96×72 with reflections, into `out`, with `extra` options.
-fn room(
-    out: &str,
-    extra: &[&str],
-) -> Result<(Option<i32>, Vec<u8>, String), Box<dyn std::error::Error>> {
+fn room(out: &str, extra: &[&str]) -> Ran {
     let scene = room_config().display().to_string();
     let mut args = vec![
         "render",

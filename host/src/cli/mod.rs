@@ -2,7 +2,7 @@
 //! render shows the user while and after it runs.
 //!
 //! Each subcommand is one variant of [`Command`] holding its own argument struct (a clap type);
-//! its module ([`render`], [`view`], [`worker`], [`convert`], [`generate`], [`bench`](mod@bench)) holds that struct
+//! its module ([`render`], [`view`], [`worker`], [`shell`] (completions and the manual page), [`convert`], [`generate`], [`bench`](mod@bench)) holds that struct
 //! and a `run` function that turns the arguments into plain values and calls the group that does
 //! the work: [`crate::formats`] and [`crate::cluster`] for `render`, [`crate::formats`] for
 //! `convert`, [`crate::generate`] for `generate`, the benchmark modules for `bench`, and the
@@ -18,13 +18,15 @@ pub mod convert;
 pub mod generate;
 pub mod progress;
 pub mod render;
+pub mod shell;
 pub mod summary;
 pub mod view;
 pub mod worker;
 
 use clap::{Parser, Subcommand};
 
-/// Strahl, a ray tracer: renders the seed's scene files to BMP or PNG images.
+/// Strahl, a distributed ray tracer: renders the seed's, FART's and NFF scenes to images on
+/// this machine, a cluster over TCP and boards on serial links.
 #[derive(Debug, Parser)]
 #[command(name = "strahl", version, propagate_version = true)]
 pub struct Cli {
@@ -49,6 +51,10 @@ pub enum Command {
     /// Open a scene in the browser: set up its render in a form, start, stop and resume it, and
     /// watch it fill in.
     View(view::ViewArgs),
+    /// Print a shell completion script (bash, zsh, fish, elvish or powershell).
+    Completions(shell::CompletionsArgs),
+    /// Print the manual page (roff), e.g. `strahl man > ~/.local/share/man/man1/strahl.1`.
+    Man,
 }
 
 /// Runs the subcommand `cli` names.
@@ -63,6 +69,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(&args),
         Command::Worker(args) => worker::run(&args),
         Command::View(args) => view::run(&args),
+        Command::Completions(args) => shell::completions(&args),
+        Command::Man => shell::man(),
     }
 }
 

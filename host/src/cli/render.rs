@@ -276,6 +276,12 @@ pub struct ClusterArgs {
     #[arg(long, value_name = "TEMPLATE", requires = "hosts")]
     pub launch: Option<String>,
 
+    /// Inside a Slurm allocation (sbatch, salloc): start one worker per allocated node through
+    /// srun, using the node's CPUs; they dial back to this master. Several nodes need a secret
+    /// (--secret-file on a file system they share, or STRAHL_SECRET).
+    #[arg(long, conflicts_with = "launch")]
+    pub slurm: bool,
+
     /// A serial worker at PATH[:BAUD] (default 115200 baud); repeatable.
     #[arg(long = "serial", value_name = "PATH[:BAUD]")]
     pub serial: Vec<String>,
@@ -383,6 +389,11 @@ impl ClusterArgs {
             serial: self.serial.clone(),
             secret,
             insecure: self.insecure,
+            slurm: self.slurm,
+            secret_file: self
+                .secret_file
+                .as_ref()
+                .map(|f| std::path::absolute(f).unwrap_or_else(|_| f.clone())),
         }
     }
 }

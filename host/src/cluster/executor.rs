@@ -8,6 +8,7 @@
 use crate::cluster::link::Link;
 use crate::cluster::local::spawn_local_workers;
 use crate::cluster::prepared::PreparedScene;
+use crate::cluster::slurm::Allocation;
 use crate::formats::hosts::{read_hosts_file, HostEntry};
 use crate::util::secret::listen_endpoint;
 use crate::util::sys::{CONNECT_TIMEOUT, POLL_INTERVAL};
@@ -41,6 +42,10 @@ pub struct WorkerSources {
     pub secret: bool,
     /// Listen beyond this machine without a secret (`--insecure`).
     pub insecure: bool,
+    /// Start a worker on every node of the Slurm allocation (`--slurm`).
+    pub slurm: bool,
+    /// The secret's file, for workers started with `--slurm` (absolute).
+    pub secret_file: Option<PathBuf>,
 }
 
 impl WorkerSources {
@@ -50,6 +55,7 @@ impl WorkerSources {
             || self.hosts.is_some()
             || self.listen.is_some()
             || !self.serial.is_empty()
+            || self.slurm
     }
 }
 
@@ -206,7 +212,7 @@ pub fn start_workers(
         serial.push(strahl_serial::parse_port_spec(spec).map_err(|e| anyhow!("--serial {e}"))?);
     }
 
-    if args.listen.is_some() || args.launch.is_some() {
+    if args.listen.is_some() || args.launch.is_some() || args.slurm {
         let others = !w.links.is_empty() || !dial.is_empty() || !serial.is_empty();
         listen_and_launch(args, &hosts, others, &mut w, warn)?;
     }
@@ -270,22 +276,33 @@ fn listen_and_launch(
     } else {
         listen_endpoint(&endpoint, args.secret, args.insecure, "this master")?
     };
+    let allocation = match args.slurm {
+        true => Some(slurm_allocation(&endpoint)?),
+        false => None,
+    };
     let (acceptor, joins) = accept_workers(&endpoint)?;
+    let master = if acceptor.address.ip().is_unspecified() {
+        format!(
+            "{}:{}",
+            crate::util::sys::host_name(),
+            acceptor.address.port()
+        )
+    } else {
+        acceptor.address.to_string()
+    };
     if let Some(template) = &args.launch {
-        let master = if acceptor.address.ip().is_unspecified() {
-            format!(
-                "{}:{}",
-                crate::util::sys::host_name(),
-                acceptor.address.port()
-            )
-        } else {
-            acceptor.address.to_string()
-        };
         for h in hosts {
-            w.launched.push(launch(template, h, &master)?);
+            let argv = template_words(template, h, &master)?;
+            w.launched.push(launch(&argv, &h.host)?);
         }
-        check_launches(w, others, warn)?;
     }
+    if let Some(a) = allocation {
+        let exe = std::env::current_exe().context("--slurm: cannot find this program's path")?;
+        let argv = a.srun_command(&exe, &master, args.secret_file.as_deref());
+        w.launched
+            .push(launch(&argv, &format!("Slurm job {}", a.job))?);
+    }
+    check_launches(w, others, warn)?;
     w.acceptor = Some(acceptor);
     w.joins = Some(joins);
     Ok(())
@@ -355,14 +372,47 @@ fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> 
 }
 
 /// Starts the launch command for one host.
-fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<LaunchedWorker> {
+/// The Slurm allocation `--slurm` starts workers in; without a secret, only a one-node
+/// allocation (the workers dial a master on this machine).
+///
+/// # Errors
+/// No allocation, or several nodes and a master listening on this machine only.
+fn slurm_allocation(endpoint: &str) -> anyhow::Result<Allocation> {
+    let a = Allocation::from_env(|k| std::env::var(k).ok()).map_err(|e| anyhow!("{e}"))?;
+    if a.nodes > 1 && crate::util::secret::is_loopback(endpoint) {
+        bail!(
+            "--slurm: the allocation has {} nodes, whose workers must reach this master, but \
+             without a shared secret it listens on this machine only; give --secret-file FILE \
+             (on a file system the nodes share) or STRAHL_SECRET",
+            a.nodes
+        );
+    }
+    Ok(a)
+}
+
+/// A launch template's words with `{host}` and `{master}` put in.
+///
+/// # Errors
+/// An empty template or an unclosed quote.
+fn template_words(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<Vec<String>> {
     // No shell: the template is split into words first and `{host}` and `{master}` are put
     // into them, so a value can never become a second command.
-    let words = split_template(template)?;
-    let args: Vec<String> = words
+    let words: Vec<String> = split_template(template)?
         .iter()
         .map(|w| w.replace("{host}", &host.host).replace("{master}", master))
         .collect();
+    if words.is_empty() {
+        bail!("--launch: the template is empty");
+    }
+    Ok(words)
+}
+
+/// Starts the command `args` (a program and its arguments, no shell) for `host`, in a process
+/// group of its own, keeping the end of its stderr.
+///
+/// # Errors
+/// The command cannot be started.
+fn launch(args: &[String], host: &str) -> anyhow::Result<LaunchedWorker> {
     let (program, rest) = args
         .split_first()
         .ok_or_else(|| anyhow!("--launch: the template is empty"))?;
@@ -377,7 +427,7 @@ fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<Laun
     std::os::unix::process::CommandExt::process_group(&mut command, 0);
     let mut child = command
         .spawn()
-        .with_context(|| format!("cannot start `{}` for host {}", args.join(" "), host.host))?;
+        .with_context(|| format!("cannot start `{}` for {host}", args.join(" ")))?;
     let stderr = Arc::new(Mutex::new(Vec::new()));
     if let Some(mut pipe) = child.stderr.take() {
         let keep = Arc::clone(&stderr);
@@ -393,7 +443,7 @@ fn launch(template: &str, host: &HostEntry, master: &str) -> anyhow::Result<Laun
         });
     }
     Ok(LaunchedWorker {
-        host: host.host.clone(),
+        host: host.to_string(),
         child,
         stderr,
     })

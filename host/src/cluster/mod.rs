@@ -29,6 +29,7 @@
 //! - [`local`]: worker threads in this process, the default executor of `strahl render`.
 //! - [`executor`]: which workers a render uses (local threads, TCP, serial, dialling in,
 //!   launched on a hosts file's machines) and starting them.
+//! - [`slurm`]: `--slurm`: the allocation and the `srun` step that starts a worker per node.
 //! - [`sim`]: the simulated cluster: many in-process workers with speeds and seeded faults.
 //! - [`model`]: a discrete-event model of the master and workers in virtual time, for
 //!   clusters larger than this machine.
@@ -56,4 +57,5 @@ pub mod report;
 pub mod schedule;
 pub(crate) mod session;
 pub mod sim;
+pub mod slurm;
 pub(crate) mod verify;
