@@ -912,7 +912,12 @@ fn noisy_cable_to_the_worker_only_gives_the_clean_image() -> TestResult {
 #[test]
 fn cli_mixes_local_tcp_and_serial_workers() -> TestResult {
     let dir = scene_dir(DATA)?;
-    let reference = reference_bmp(dir.path())?;
+    // 16 samples per pixel: a line costs enough that a worker still greeting finds lines left
+    // (at one sample the in-process worker could finish all 48 before a TCP worker has said
+    // hello, render after render).
+    let out = render(dir.path(), &["-o", "ref.bmp", "--workers", "1", "-m", "4"])?;
+    assert_success(&out);
+    let reference = std::fs::read(dir.path().join("ref.bmp"))?;
     let tcp = WorkerProcess::spawn(&["--listen", "127.0.0.1:0", "--name", "tcp-proc"])?;
     let line = tcp.wait_for("listening on ")?;
     let address = line
@@ -931,6 +936,8 @@ fn cli_mixes_local_tcp_and_serial_workers() -> TestResult {
             &[
                 "-o",
                 &image,
+                "-m",
+                "4",
                 "--workers",
                 "1",
                 "--worker",
