@@ -207,6 +207,23 @@ fn convert_turns_an_obj_into_a_renderable_seed_scene() -> TestResult {
     )?;
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(size_of(&dir.path().join("p.bmp"))?, (32, 24));
+    // Converting again does not replace what is there, unless --force.
+    let config = std::fs::read(dir.path().join("raytracer.cfg"))?;
+    let out = strahl(dir.path(), &["convert", &obj, "-o", "OTHER.txt"])?;
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("raytracer.cfg: the file is there already"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(stderr(&out).contains("--force"), "{}", stderr(&out));
+    assert_eq!(std::fs::read(dir.path().join("raytracer.cfg"))?, config);
+    assert!(!dir.path().join("OTHER.txt").exists());
+    let out = strahl(
+        dir.path(),
+        &["convert", &obj, "-o", "PYRAMID.txt", "--force"],
+    )?;
+    assert!(out.status.success(), "{}", stderr(&out));
     // A missing input is an error naming it.
     let out = strahl(dir.path(), &["convert", "nope.obj", "-o", "X.txt"])?;
     assert_eq!(out.status.code(), Some(1));

@@ -273,6 +273,33 @@ fn material_mapping_and_defaults() -> TestResult {
 }
 
 #[test]
+fn subtract_takes_the_first_minus_all_the_others() -> TestResult {
+    let many = load_body(
+        "subtract { box { size 2 } sphere { radius 0.5 } cyl { } sphere { translate <1, 0, 0> } }",
+    )?;
+    let explicit = load_body(
+        "subtract { box { size 2 } union { sphere { radius 0.5 } cyl { } sphere { translate <1, 0, 0> } } }",
+    )?;
+    assert_eq!(
+        many.solids, explicit.solids,
+        "A minus the union of B, C and D"
+    );
+    let root = many.solids[*many.objects.first().ok_or("no object")? as usize];
+    assert!(
+        matches!(
+            root,
+            SolidNode::Csg {
+                op: CsgOp::Subtract,
+                a: 0,
+                ..
+            }
+        ),
+        "{root:?}"
+    );
+    Ok(())
+}
+
+#[test]
 fn csg_arena_order_ops_transforms_and_inheritance() -> TestResult {
     let desc = load_body(
         "subtract {
@@ -605,8 +632,8 @@ fn error_positions_and_messages() {
             "2:19: undefined variable `r`; set it with `let r = ...` first",
         ),
         (
-            "scene {\n  subtract { sphere { } box { }\n    cyl { } }\n}",
-            "3:5: expected exactly two shapes in a `subtract` (A - B), found a third one here (3 in all)",
+            "scene {\n  subtract { sphere { } }\n}",
+            "2:25: expected at least two shapes in a `subtract` (the first, minus all the others), found 1",
         ),
         (
             "scene {\n  light { position <1, 1, 1> }\n  sphere { }\n}",

@@ -404,8 +404,15 @@ fn convert_output_loads_and_renders() {
 fn convert_can_keep_z_up_and_rejects_bad_names() {
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("plain.txt");
-    let s = convert_obj_with(&fixture("cube.obj"), &out, &ConvertOptions { y_up: false })
-        .unwrap_or_else(|e| panic!("{e:#}"));
+    let s = convert_obj_with(
+        &fixture("cube.obj"),
+        &out,
+        &ConvertOptions {
+            y_up: false,
+            ..ConvertOptions::default()
+        },
+    )
+    .unwrap_or_else(|e| panic!("{e:#}"));
     assert_eq!((s.shaders, s.normals_dropped), (1, 0), "one grey shader");
     assert!(!s.to_string().contains("normals from the OBJ"));
     let loaded =
@@ -424,7 +431,37 @@ fn convert_can_keep_z_up_and_rejects_bad_names() {
     )
     .expect_err("no folder");
     assert!(err.to_string().contains("x.txt"), "{err:#}");
-    let err = convert_obj(&dir.path().join("nothing.obj"), &out).expect_err("no input");
+    // What is there is not replaced without --force: the data file, or the seed's own config.
+    let err = convert_obj(&fixture("cube.obj"), &out).expect_err("plain.txt is there");
+    assert!(
+        err.to_string()
+            .contains("plain.txt: the file is there already"),
+        "{err}"
+    );
+    assert!(err.to_string().contains("--force"), "{err}");
+    let seed = tempfile::tempdir().expect("tempdir");
+    let cfg = seed.path().join("raytracer.cfg");
+    std::fs::write(&cfg, "REM   Datei nicht verändern!!!\n").expect("written");
+    let err = convert_obj(&fixture("cube.obj"), &seed.path().join("MODEL.txt")).expect_err("cfg");
+    assert!(
+        err.to_string()
+            .contains("raytracer.cfg: the file is there already"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&cfg).ok().as_deref(),
+        Some("REM   Datei nicht verändern!!!\n")
+    );
+    assert!(!seed.path().join("MODEL.txt").exists(), "nothing written");
+    let forced = ConvertOptions {
+        force: true,
+        ..ConvertOptions::default()
+    };
+    convert_obj_with(&fixture("cube.obj"), &out, &forced).unwrap_or_else(|e| panic!("{e:#}"));
+
+    let fresh = tempfile::tempdir().expect("tempdir");
+    let err = convert_obj(&dir.path().join("nothing.obj"), &fresh.path().join("x.txt"))
+        .expect_err("no input");
     assert!(
         err.to_string().contains("nothing.obj: cannot read"),
         "{err}"

@@ -6,7 +6,7 @@
 //! - the **data file** (the output name given): `_SHD`, `_LIGHT`, `_PT` and `_TR` records as
 //!   `scenes/FORMATS.md` section 3 describes them (0-based indices), written by
 //!   [`crate::datafile::write_data_file`];
-//! - a **`raytracer.cfg`** in the same folder, written by [`crate::config::write_config`], (replacing one that is there) whose `$INPUT_DATA`
+//! - a **`raytracer.cfg`** in the same folder, written by [`crate::config::write_config`], whose `$INPUT_DATA`
 //!   names the data file and whose seed camera frames the mesh: it stands in front of the model
 //!   (on the −Y side), tilted 15° down, with zoom 1.5, far enough that the mesh's bounding sphere
 //!   fits the 640 × 480 image.
@@ -25,6 +25,8 @@
 //! - **Light**: one white shadow-casting light above the model, in front of it and to the left.
 //!
 //! Both files are written atomically (a temporary file in the same folder, renamed into place).
+//! Neither replaces a file that is there unless [`ConvertOptions::force`] says so (the seed's own
+//! `raytracer.cfg` says "Datei nicht verändern!": do not change this file).
 
 use crate::config::{write_config, Config};
 use crate::datafile::write_data_file;
@@ -56,11 +58,17 @@ pub struct ConvertOptions {
     /// The OBJ is Y-up (OBJ's convention, the default): turn it to the seed's Z-up with
     /// `(x, y, z) → (x, −z, y)`. `false` keeps the coordinates.
     pub y_up: bool,
+    /// Replace a data file or `raytracer.cfg` that is there already (`--force`); without it,
+    /// an existing file is an error that names it.
+    pub force: bool,
 }
 
 impl Default for ConvertOptions {
     fn default() -> Self {
-        ConvertOptions { y_up: true }
+        ConvertOptions {
+            y_up: true,
+            force: false,
+        }
     }
 }
 
@@ -188,6 +196,18 @@ pub fn convert_obj_with(
     let config_file = folder.join("raytracer.cfg");
 
     let obj = read_obj_file(input)?;
+    if !options.force {
+        if let Some(there) = [output, config_file.as_path()]
+            .into_iter()
+            .find(|p| p.exists())
+        {
+            bail!(
+                "{}: the file is there already and convert does not replace it; give --force \
+                 to replace it, or another -o folder",
+                there.display()
+            );
+        }
+    }
     let (desc, camera, mut warnings) = framed_scene(&obj, options);
     warnings.splice(0..0, obj.warnings.iter().cloned());
 

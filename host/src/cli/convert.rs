@@ -17,6 +17,11 @@ pub struct ConvertArgs {
     /// Keep the OBJ's coordinates instead of turning its Y-up into the seed's Z-up.
     #[arg(long)]
     pub z_up: bool,
+
+    /// Replace the data file or raytracer.cfg if one is there (without it, convert refuses and
+    /// names the file).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// `strahl convert`: the OBJ as the seed's data file and a configuration file for it.
@@ -24,7 +29,10 @@ pub struct ConvertArgs {
 /// # Errors
 /// A bad or unreadable OBJ or .mtl (naming the file and line) or a file that cannot be written.
 pub fn run(args: &ConvertArgs) -> anyhow::Result<()> {
-    let options = crate::formats::convert::ConvertOptions { y_up: !args.z_up };
+    let options = crate::formats::convert::ConvertOptions {
+        y_up: !args.z_up,
+        force: args.force,
+    };
     let summary = crate::formats::convert::convert_obj_with(&args.input, &args.output, &options)?;
     eprint!("{summary}");
     Ok(())

@@ -1356,27 +1356,22 @@ impl Expander {
         self.scopes.pop();
         result?;
         let n = ops.vals.len();
-        if op == CsgOp::Subtract {
-            if n > 2 {
-                return err(
-                    ops.vals[2].pos,
-                    format!("expected exactly two shapes in a `subtract` (A - B), found a third one here ({n} in all)"),
-                );
-            }
-            if n < 2 {
-                return err(
-                    ast.end,
-                    format!("expected exactly two shapes in a `subtract` (A - B), found {n}"),
-                );
-            }
-        } else if n < 2 {
+        if n < 2 {
+            let what = match op {
+                CsgOp::Subtract => " (the first, minus all the others)",
+                _ => "",
+            };
             return err(
                 ast.end,
-                format!("expected at least two shapes in a `{word}`, found {n}"),
+                format!("expected at least two shapes in a `{word}`{what}, found {n}"),
             );
         }
         let depths: Vec<u32> = ops.vals.iter().map(|v| v.depth).collect();
-        let depth = folded_depth(&depths);
+        let depth = match op {
+            // A minus the union of the others.
+            CsgOp::Subtract => 1 + depths[0].max(folded_depth(&depths[1..])),
+            _ => folded_depth(&depths),
+        };
         if depth > MAX_CSG_DEPTH {
             return err(
                 ast.pos,
@@ -1475,7 +1470,18 @@ impl Expander {
                 for o in operands {
                     ids.push(self.emit_solid(o, &transform, material)?);
                 }
-                Ok(self.fold(*op, &ids))
+                Ok(match (op, ids.split_first()) {
+                    // `subtract { A B C }` is A minus all the others: A − (B ∪ C).
+                    (CsgOp::Subtract, Some((&a, rest))) if rest.len() > 1 => {
+                        let b = self.fold(CsgOp::Union, rest);
+                        self.push_solid(SolidNode::Csg {
+                            op: CsgOp::Subtract,
+                            a,
+                            b,
+                        })
+                    }
+                    _ => self.fold(*op, &ids),
+                })
             }
             Node::Mesh(mesh) => {
                 // A CSG operand: the mesh's triangles in object space, as a closed solid.
