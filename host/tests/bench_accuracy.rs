@@ -125,6 +125,24 @@ fn accuracy_names_a_missing_scene() {
         .expect("strahl runs");
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/scene.cfg"));
+    // A report that is there is not replaced (before anything is rendered) without --force.
+    let kept = dir.path().join("kept.md");
+    std::fs::write(&kept, "committed\n").expect("written");
+    let out = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .args(["bench", "accuracy", "--scene", ROOM, "--out"])
+        .arg(&kept)
+        .output()
+        .expect("strahl runs");
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("kept.md: the file is there already") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&kept).ok().as_deref(),
+        Some("committed\n")
+    );
 }
 
 #[test]

@@ -33,6 +33,25 @@ fn generate_room_writes_the_committed_room() {
         written == committed,
         "generate room differs from scenes/room/ROOM.txt"
     );
+    // Again: the file is there and is not replaced without --force.
+    std::fs::write(dir.path().join("ROOM.txt"), "mine\n").expect("written");
+    let d = dir.path().to_str().expect("utf-8 path");
+    let again = strahl(&["generate", "room", "-o", d]);
+    assert_eq!(again.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&again.stderr);
+    assert!(
+        err.contains("ROOM.txt: the file is there already") && err.contains("--force"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("ROOM.txt"))
+            .ok()
+            .as_deref(),
+        Some("mine\n")
+    );
+    let forced = strahl(&["generate", "room", "-o", d, "--force"]);
+    assert!(forced.status.success());
+    assert!(std::fs::read(dir.path().join("ROOM.txt")).expect("read") == committed);
 }
 
 #[test]

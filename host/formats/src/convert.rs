@@ -30,7 +30,7 @@
 
 use crate::config::{write_config, Config};
 use crate::datafile::write_data_file;
-use crate::fs::write_text_atomically;
+use crate::fs::{refuse_to_replace, write_text_atomically};
 use crate::obj::{read_obj_file, ObjFile, ObjMaterial};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
@@ -196,18 +196,7 @@ pub fn convert_obj_with(
     let config_file = folder.join("raytracer.cfg");
 
     let obj = read_obj_file(input)?;
-    if !options.force {
-        if let Some(there) = [output, config_file.as_path()]
-            .into_iter()
-            .find(|p| p.exists())
-        {
-            bail!(
-                "{}: the file is there already and convert does not replace it; give --force \
-                 to replace it, or another -o folder",
-                there.display()
-            );
-        }
-    }
+    refuse_to_replace(&[output, &config_file], options.force)?;
     let (desc, camera, mut warnings) = framed_scene(&obj, options);
     warnings.splice(0..0, obj.warnings.iter().cloned());
 

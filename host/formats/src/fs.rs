@@ -69,3 +69,19 @@ pub fn write_text_atomically(path: &Path, text: &str) -> anyhow::Result<()> {
             .with_context(|| format!("{}: cannot write", path.display()))
     })
 }
+
+/// Refuses, unless `force`, to replace any of `paths` that is there already: no command
+/// replaces a file it did not write in the same run unless asked (`--force`).
+///
+/// # Errors
+/// The first file that is there, named, with the option that replaces it.
+pub fn refuse_to_replace(paths: &[&Path], force: bool) -> anyhow::Result<()> {
+    match paths.iter().find(|p| !force && p.exists()) {
+        Some(there) => anyhow::bail!(
+            "{}: the file is there already and is not replaced; give --force to replace it, or \
+             another output",
+            there.display()
+        ),
+        None => Ok(()),
+    }
+}

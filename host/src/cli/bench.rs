@@ -120,9 +120,14 @@ pub struct AccuracyArgs {
     #[arg(long, value_name = "N", default_value_t = 3,
           value_parser = clap::value_parser!(u32).range(1..=100))]
     pub runs: u32,
-    /// The Markdown report; the SVG plot goes next to it (same name, `.svg`).
-    #[arg(long, value_name = "FILE", default_value = "docs/accuracy.md")]
+    /// The Markdown report; the SVG plot goes next to it (same name, `.svg`). Neither replaces
+    /// a file that is there without --force (docs/accuracy.md is refreshed with `--out
+    /// docs/accuracy.md --force`).
+    #[arg(long, value_name = "FILE", default_value = "accuracy.md")]
     pub out: PathBuf,
+    /// Replace the report and its plot if they are there.
+    #[arg(long)]
+    pub force: bool,
     /// Sweep fewer values of each knob (for tests and a first look).
     #[arg(long)]
     pub quick: bool,
@@ -200,6 +205,7 @@ impl AccuracyArgs {
             runs: self.runs,
             out: self.out.clone(),
             quick: self.quick,
+            force: self.force,
         }
     }
 }

@@ -6,7 +6,7 @@
 
 use crate::formats::config::write_config;
 use crate::formats::datafile::write_data_file;
-use crate::formats::fs::write_text_atomically;
+use crate::formats::fs::{refuse_to_replace, write_text_atomically};
 use crate::generate::{large, large_config, room_data_file};
 
 /// Which scene `strahl generate` writes.
@@ -27,6 +27,9 @@ pub struct GenerateArgs {
     /// The folder to write into (it must exist).
     #[arg(short, long, value_name = "DIR", default_value = ".")]
     pub output: std::path::PathBuf,
+    /// Replace the files if they are there (without it, generate refuses and names the file).
+    #[arg(long)]
+    pub force: bool,
     /// Least number of triangles of the large scene.
     #[arg(long, value_name = "N", default_value_t = 100_000,
           value_parser = clap::value_parser!(u32).range(1_000..=50_000_000))]
@@ -44,10 +47,15 @@ pub fn run(args: &GenerateArgs) -> anyhow::Result<()> {
     }
     match args.kind {
         SceneKind::Room => {
+            refuse_to_replace(&[&dir.join("ROOM.txt")], args.force)?;
             write_text_atomically(&dir.join("ROOM.txt"), &room_data_file())?;
             eprintln!("wrote {}", dir.join("ROOM.txt").display());
         }
         SceneKind::Large => {
+            refuse_to_replace(
+                &[&dir.join("LARGE.txt"), &dir.join("raytracer.cfg")],
+                args.force,
+            )?;
             let desc = large(args.triangles);
             let header = format!(
                 "Strahl large benchmark scene, written by `strahl generate large --triangles {}`.\n\

@@ -20,7 +20,8 @@
 //! 3. times every setting (median of `--runs` renders with one in-process worker per CPU, scene
 //!    preparation not timed) and measures its error against the reference: RMSE and PSNR over
 //!    the colour channels in `[0, 1]`, and SSIM (11×11 Gaussian window, σ = 1.5) on luminance;
-//! 4. writes a Markdown report (`--out`, default `docs/accuracy.md`) with the table, an SVG plot
+//! 4. writes a Markdown report (`--out`, default `accuracy.md`, never over a file that is there
+//!    without `--force`) with the table, an SVG plot
 //!    of error against time with the Pareto front (written next to it), and a paragraph per knob
 //!    generated from the measured numbers, each ending with a conclusion drawn from them.
 //!
@@ -153,6 +154,8 @@ pub struct AccuracyOptions {
     pub out: PathBuf,
     /// Sweep fewer values of each knob.
     pub quick: bool,
+    /// Replace a report or plot that is there.
+    pub force: bool,
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -440,6 +443,7 @@ pub fn run(args: &AccuracyOptions) -> anyhow::Result<()> {
         .map(|n| n.to_string_lossy().into_owned())
         .ok_or_else(|| anyhow!("{}: not a file name", args.out.display()))?;
     check_report_folder(&args.out)?;
+    crate::formats::fs::refuse_to_replace(&[&args.out, &svg_path], args.force)?;
 
     let list = scene_list(args)?;
     println!(
