@@ -1,4 +1,10 @@
 //! The SVG plot of error against time, one panel per scene, with the Pareto front marked.
+//!
+//! Why not the `plotters` crate: plotters could draw these marks (log axes, filled and hollow
+//! points, a front), but it lays out its axes by measuring text through a font backend, its
+//! `ttf` feature (font-kit, which reads the system's fonts through fontconfig) or `ab_glyph` (a
+//! font file the program bundles and registers). This plot writes its text as SVG `<text>` that
+//! the viewer lays out, so it needs no font at all, and it is short enough to keep here.
 
 use super::metrics::pareto_front;
 use super::Knob;
