@@ -134,9 +134,12 @@ fn room_shaders() -> Vec<Shader> {
             25.0,
             0.0,
         ),
+        // The mirror: its local colour is silvered glass, a light blue-grey, which is all it
+        // shows under the seed's `$REFLECTIONS 0` and a 15 % tint of what it reflects with
+        // reflections on.
         Shader::phong(
-            Vec3::splat(0.02),
-            Vec3::splat(0.05),
+            Vec3::new(0.06, 0.065, 0.07),
+            Vec3::new(0.55, 0.6, 0.66),
             Vec3::splat(0.3),
             60.0,
             0.85,

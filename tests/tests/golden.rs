@@ -57,7 +57,7 @@ fn room_as_configured() {
     check(
         "room_as_configured",
         &room(Overrides::default()),
-        0xa12aca56163b0c29,
+        0x13b2bba99f5fc10f,
     );
 }
 
@@ -67,7 +67,7 @@ fn room_with_reflections() {
         reflections: Some(true),
         ..Overrides::default()
     });
-    check("room_with_reflections", &desc, 0x9dc1ea7061cc16e0);
+    check("room_with_reflections", &desc, 0x46fa9eafebc7a8fb);
 }
 
 #[test]
@@ -76,7 +76,7 @@ fn room_without_shadows() {
         shadows: Some(false),
         ..Overrides::default()
     });
-    check("room_without_shadows", &desc, 0xd0e94352b027d637);
+    check("room_without_shadows", &desc, 0x28b17662f5687d59);
 }
 
 #[test]
