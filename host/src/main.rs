@@ -22,6 +22,14 @@ fn error_chain(err: &anyhow::Error) -> String {
     msg
 }
 
+/// How `error:` looks, as clap writes it: bold red where stderr is a terminal that takes colour;
+/// `anstream` writes it plain where it is not, or where `NO_COLOR` is set.
+fn error_style() -> anstyle::Style {
+    anstyle::Style::new()
+        .bold()
+        .fg_color(Some(anstyle::AnsiColor::Red.into()))
+}
+
 /// Whether the error is a write to a closed pipe.
 fn is_broken_pipe(err: &anyhow::Error) -> bool {
     err.chain().any(|c| {
@@ -43,9 +51,10 @@ fn height_without_value(args: &[String]) -> bool {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().collect();
     if height_without_value(&args) {
-        eprintln!(
-            "error: -h is the image height (as in FART), and it needs a number, for example \
-             -h 480; for help use --help"
+        let style = error_style();
+        anstream::eprintln!(
+            "{style}error:{style:#} -h is the image height (as in FART), and it needs a number, \
+             for example -h 480; for help use --help"
         );
         return ExitCode::from(2);
     }
@@ -56,7 +65,8 @@ fn main() -> ExitCode {
         // The reader of our output went away (`strahl bench | head`): nothing left to say.
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,
         Err(err) => {
-            eprintln!("error: {}", printable(&error_chain(&err)));
+            let style = error_style();
+            anstream::eprintln!("{style}error:{style:#} {}", printable(&error_chain(&err)));
             // 2 for what the command line asks wrongly, as clap's own errors; 1 for failures.
             if err.chain().any(|c| c.is::<UsageError>()) {
                 ExitCode::from(2)

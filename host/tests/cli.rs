@@ -381,15 +381,16 @@ fn summary_names_size_rays_and_output() -> TestResult {
     assert_success(&out);
     assert!(out.stdout.is_empty());
     let err = stderr(&out);
-    // stderr is not a terminal here: no progress bar, just the summary line, the effects line
-    // and the worker table (a header and one line per worker).
-    assert_eq!(err.lines().count(), 5, "{err}");
+    // stderr is not a terminal here: no progress bar (a render this short writes no progress
+    // line), just the summary (five lines), the effects line and the worker table (a header and
+    // one line per worker).
+    assert_eq!(err.lines().count(), 9, "{err}");
     assert_eq!(
-        err.lines().nth(1),
+        err.lines().nth(5),
         Some("effects: shadows 1/1 lights, highlights"),
         "{err}"
     );
-    let table: Vec<&str> = err.lines().skip(2).collect();
+    let table: Vec<&str> = err.lines().skip(6).collect();
     assert!(table[0].starts_with("worker "), "{err}");
     assert!(
         table[1].starts_with("local-1 ") && table[1].ends_with(" ok"),
@@ -399,11 +400,22 @@ fn summary_names_size_rays_and_output() -> TestResult {
         table[2].starts_with("local-2 ") && table[2].ends_with(" ok"),
         "{err}"
     );
+    assert!(err.lines().all(|l| l.chars().count() <= 100), "{err}");
+    assert!(table.iter().all(|l| l.chars().count() <= 80), "{err}");
     assert!(err.starts_with("rendered 32x24 in "), "{err}");
-    assert!(err.contains("2 triangles"), "{err}");
-    assert!(err.contains(&format!("rays {} primary", 32 * 24)), "{err}");
-    assert!(err.contains(" shadow, 0 reflection"), "{err}");
-    assert!(err.contains("2 workers"), "{err}");
+    assert!(err.contains("  scene:   2 triangles"), "{err}");
+    assert!(
+        err.contains(&format!("  rays:    {} primary, ", 32 * 24)),
+        "{err}"
+    );
+    assert!(
+        err.contains("no extra samples, reflection, refraction or occlusion rays"),
+        "{err}"
+    );
+    assert!(
+        err.contains("  workers: 2 workers (2 finished, 0 lost)"),
+        "{err}"
+    );
     assert!(
         err.lines().next().unwrap_or("").ends_with("out.bmp"),
         "{err}"

@@ -95,3 +95,30 @@ fn the_systemd_units_command_is_a_valid_worker_command() -> Result<(), Box<dyn s
     }
     Ok(())
 }
+
+#[test]
+fn errors_are_coloured_as_clap_colours_its_own_and_never_with_no_color(
+) -> Result<(), Box<dyn std::error::Error>> {
+    // `script` (util-linux) runs the command on a pseudo-terminal, as a user's shell would.
+    let on_terminal = |cmd: &str, no_color: bool| -> Result<String, Box<dyn std::error::Error>> {
+        let mut c = Command::new("script");
+        c.args(["-qc", cmd, "/dev/null"]).env_remove("NO_COLOR");
+        if no_color {
+            c.env("NO_COLOR", "1");
+        }
+        Ok(String::from_utf8_lossy(&c.output()?.stdout).into_owned())
+    };
+    let ours = on_terminal(&format!("{BIN} render scene.jpg"), false)?;
+    let clap = on_terminal(&format!("{BIN} render --no-such-option"), false)?;
+    let red = "\u{1b}[1m\u{1b}[31merror:\u{1b}[0m ";
+    assert!(ours.starts_with(red), "{ours:?}");
+    assert!(
+        clap.starts_with(red),
+        "clap writes its errors the same way: {clap:?}"
+    );
+    let plain = on_terminal(&format!("{BIN} render scene.jpg"), true)?;
+    assert!(plain.starts_with("error: scene.jpg:"), "{plain:?}");
+    let piped = Command::new(BIN).args(["render", "scene.jpg"]).output()?;
+    assert!(String::from_utf8(piped.stderr)?.starts_with("error: scene.jpg:"));
+    Ok(())
+}

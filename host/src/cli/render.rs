@@ -531,6 +531,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         octree: *scene.octree.stats(),
         rays: image.rays,
         workers: image.workers.len(),
+        workers_lost: image.workers.iter().filter(|w| w.lost.is_some()).count(),
         peak_memory: crate::util::sys::peak_memory_bytes(),
         output: loaded.output.clone(),
     };

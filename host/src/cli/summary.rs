@@ -1,10 +1,10 @@
-//! The one line a render prints at the end: size, times, scene and octree, rays, output.
+//! What a render prints at the end: size and output, times, scene and octree, rays, workers.
 //!
-//! [`RenderSummary`] is that line (its `Display`); [`RenderStats`] is the same render, with the
+//! [`RenderSummary`] is those lines (its `Display`); [`RenderStats`] is the same render, with the
 //! per-worker reports of [`crate::cluster::report`], as the JSON `--stats-json` writes.
 
 pub use crate::util::units::format_bytes;
-use crate::util::units::format_ray_rate;
+use crate::util::units::{format_ray_rate, group_digits};
 use std::fmt;
 use std::path::PathBuf;
 use std::time::Duration;
@@ -34,8 +34,10 @@ pub struct RenderSummary {
     pub octree: OctreeStats,
     /// Rays traced.
     pub rays: RayCounts,
-    /// Worker threads used.
+    /// Workers that joined.
     pub workers: usize,
+    /// Of those, workers lost before the end.
+    pub workers_lost: usize,
     /// The process's peak resident memory, if the system says.
     pub peak_memory: Option<u64>,
     /// The image file written.
@@ -43,40 +45,112 @@ pub struct RenderSummary {
 }
 
 impl fmt::Display for RenderSummary {
+    /// Short lines (under 100 columns for any image name up to 40 characters): what was
+    /// written, the times, the scene (the octree only where one was built), the rays by kind
+    /// (the kinds traced), the workers.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let o = &self.octree;
+        let secs = |d: Duration| d.as_secs_f64();
         let r = &self.rays;
-        write!(
+        writeln!(
             f,
-            "rendered {}x{} in {:.2} s (load {:.2} s, octree {:.2} s, tracing {:.2} s): {} \
-             triangles, {} solids, octree {} nodes / {} (depth {}), rays {} primary, {} extra \
-             samples, {} shadow, {} reflection, {} refraction, {} occlusion ({}), {} worker{}{} -> {}",
+            "rendered {}x{} in {:.2} s -> {}",
             self.width,
             self.height,
-            self.total.as_secs_f64(),
-            self.load.as_secs_f64(),
-            self.octree_build.as_secs_f64(),
-            self.render.as_secs_f64(),
-            self.triangles,
-            self.solids,
-            o.nodes,
-            format_bytes(o.bytes),
-            o.depth,
-            r.primary,
-            r.extra_samples,
-            r.shadow,
-            r.reflection,
-            r.refraction,
-            r.occlusion,
-            format_ray_rate(r.total(), self.render.as_secs_f64()),
+            secs(self.total),
+            self.output.display()
+        )?;
+        writeln!(
+            f,
+            "  times:   load {:.2} s, octree {:.2} s, tracing {:.2} s ({})",
+            secs(self.load),
+            secs(self.octree_build),
+            secs(self.render),
+            format_ray_rate(r.total(), secs(self.render)),
+        )?;
+        write!(
+            f,
+            "  scene:   {} triangles, {} solids",
+            group_digits(self.triangles as u64),
+            group_digits(self.solids as u64)
+        )?;
+        let o = &self.octree;
+        if o.nodes > 0 {
+            write!(
+                f,
+                "; octree {} nodes, {}, depth {}",
+                group_digits(o.nodes as u64),
+                format_bytes(o.bytes),
+                o.depth
+            )?;
+        }
+        writeln!(f)?;
+        writeln!(f, "{}", wrap("  rays:    ", &rays_in_words(r), 100))?;
+        let finished = self.workers - self.workers_lost;
+        write!(
+            f,
+            "  workers: {} worker{} ({finished} finished, {} lost)",
             self.workers,
             if self.workers == 1 { "" } else { "s" },
-            self.peak_memory
-                .map(|b| format!(", peak memory {}", format_bytes(b as usize)))
-                .unwrap_or_default(),
-            self.output.display(),
-        )
+            self.workers_lost
+        )?;
+        if let Some(b) = self.peak_memory {
+            write!(f, "; peak memory {}", format_bytes(b as usize))?;
+        }
+        Ok(())
     }
+}
+
+/// The rays traced, by kind, with their digits grouped; kinds not traced are named together.
+fn rays_in_words(r: &RayCounts) -> String {
+    let kinds = [
+        (r.primary, "primary"),
+        (r.extra_samples, "extra samples"),
+        (r.shadow, "shadow"),
+        (r.reflection, "reflection"),
+        (r.refraction, "refraction"),
+        (r.occlusion, "occlusion"),
+    ];
+    let traced: Vec<String> = kinds
+        .iter()
+        .filter(|(n, _)| *n > 0)
+        .map(|(n, kind)| format!("{} {kind}", group_digits(*n)))
+        .collect();
+    let none: Vec<&str> = kinds
+        .iter()
+        .filter(|(n, _)| *n == 0)
+        .map(|(_, k)| *k)
+        .collect();
+    let mut text = traced.join(", ");
+    if let Some((last, rest)) = none.split_last() {
+        if !text.is_empty() {
+            text.push_str("; ");
+        }
+        match rest {
+            [] => text.push_str(&format!("no {last} rays")),
+            _ => text.push_str(&format!("no {} or {last} rays", rest.join(", "))),
+        }
+    }
+    text
+}
+
+/// `text` after `label`, broken after commas into lines of at most `width` characters, the
+/// later ones indented as far as the label.
+fn wrap(label: &str, text: &str, width: usize) -> String {
+    let indent = " ".repeat(label.chars().count());
+    let mut out = label.to_string();
+    let mut line_len = out.chars().count();
+    for (i, piece) in text.split_inclusive(", ").enumerate() {
+        let n = piece.trim_end().chars().count();
+        if i > 0 && line_len + n > width {
+            out.truncate(out.trim_end().len());
+            out.push('\n');
+            out.push_str(&indent);
+            line_len = indent.len();
+        }
+        out.push_str(piece);
+        line_len += piece.chars().count();
+    }
+    out
 }
 
 /// The machine-readable statistics of a render (`--stats-json FILE`).
@@ -286,17 +360,59 @@ mod tests {
                 extra_samples: 8,
                 ..RayCounts::default()
             },
-            workers: 2,
+            workers: 3,
+            workers_lost: 1,
             peak_memory: Some(3 << 20),
             output: PathBuf::from("output.bmp"),
         };
+        let text = s.to_string();
         assert_eq!(
-            s.to_string(),
-            "rendered 640x480 in 1.23 s (load 0.17 s, octree 0.05 s, tracing 1.00 s): 12345 \
-             triangles, 3 solids, octree 4567 nodes / 1.2 MiB (depth 9), rays 307200 primary, 8 \
-             extra samples, 123 shadow, 45 reflection, 6 refraction, 7 occlusion (307.4 k rays/s), \
-             2 workers, peak memory 3.0 MiB -> output.bmp"
+            text,
+            "rendered 640x480 in 1.23 s -> output.bmp\n\
+             \x20 times:   load 0.17 s, octree 0.05 s, tracing 1.00 s (307.4 k rays/s)\n\
+             \x20 scene:   12,345 triangles, 3 solids; octree 4,567 nodes, 1.2 MiB, depth 9\n\
+             \x20 rays:    307,200 primary, 8 extra samples, 123 shadow, 45 reflection, 6 refraction, 7 occlusion\n\
+             \x20 workers: 3 workers (2 finished, 1 lost); peak memory 3.0 MiB"
         );
+        assert!(text.lines().all(|l| l.chars().count() <= 100), "{text}");
+        // No octree, kinds not traced named together.
+        let plain = RenderSummary {
+            octree: OctreeStats::default(),
+            rays: RayCounts {
+                primary: 1000,
+                shadow: 5,
+                ..RayCounts::default()
+            },
+            workers: 1,
+            workers_lost: 0,
+            ..s
+        };
+        let text = plain.to_string();
+        assert!(
+            text.contains("  scene:   12,345 triangles, 3 solids\n"),
+            "{text}"
+        );
+        assert!(
+            text.contains("rays:    1,000 primary, 5 shadow; no extra samples, reflection, refraction or occlusion rays"),
+            "{text}"
+        );
+        assert!(text.contains("1 worker (1 finished, 0 lost)"), "{text}");
+        // Long counts wrap after a comma, under the label.
+        let big = RenderSummary {
+            rays: RayCounts {
+                primary: 1_228_800,
+                extra_samples: 9_830_400,
+                shadow: 10_795_678,
+                reflection: 1_714_824,
+                refraction: 5_000_000,
+                occlusion: 10_000_000,
+                ..RayCounts::default()
+            },
+            ..plain
+        };
+        let text = big.to_string();
+        assert!(text.lines().all(|l| l.chars().count() <= 100), "{text}");
+        assert!(text.contains(",\n           "), "{text}");
         assert_eq!(format_bytes(100), "100 B");
         assert_eq!(format_bytes(2048), "2.0 KiB");
     }

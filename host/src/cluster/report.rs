@@ -1,10 +1,10 @@
 //! What each worker did in a render: the per-worker table of the end summary.
 //!
-//! Ray rates are written by [`crate::util::units`], the same function the progress bar uses, so
-//! the cluster does not depend on the interface layer.
+//! Ray rates are written by [`crate::util::units`], so the cluster does not depend on the
+//! interface layer.
 
 use crate::cluster::link::LinkKind;
-use crate::util::units::format_ray_rate;
+use crate::util::units::format_rate_short;
 use std::fmt;
 use std::time::Duration;
 use strahl_core::render::stats::RayCounts;
@@ -112,7 +112,8 @@ impl WorkerReport {
 /// The widest worker name the table shows in full.
 const NAME_WIDTH: usize = 40;
 
-/// The per-worker table printed after a render.
+/// The per-worker table printed after a render: one row of 80 columns per worker (wider only
+/// for names over 14 characters); a lost worker's reason on an indented line below its row.
 pub struct WorkerTable<'a>(pub &'a [WorkerReport]);
 
 impl fmt::Display for WorkerTable<'_> {
@@ -123,29 +124,18 @@ impl fmt::Display for WorkerTable<'_> {
             .map(|n| n.chars().count())
             .max()
             .unwrap_or(0)
-            .clamp(12, NAME_WIDTH);
+            .clamp(6, NAME_WIDTH);
         writeln!(
             f,
-            "{:<width$} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8} {:>15} {:>15} {:>8} {:>7}  status",
-            "worker",
-            "link",
-            "thr",
-            "lines",
-            "dup",
-            "lines/req",
-            "rays",
-            "busy s",
-            "rate",
-            "rate/thread",
-            "reissued",
-            "dropped"
+            "{:<width$} {:<6} {:>3} {:>6} {:>4} {:>5} {:>8} {:>8} {:>5} {:>4}  status",
+            "worker", "link", "thr", "lines", "dup", "l/req", "rays/s", "/thread", "reiss", "drop"
         )?;
         for (w, name) in self.0.iter().zip(names) {
             let secs = w.busy.as_secs_f64();
             let thread_secs = secs * f64::from(w.threads.max(1));
             writeln!(
                 f,
-                "{:<width$} {:<7} {:>4} {:>6} {:>5} {:>9} {:>12} {:>8.2} {:>15} {:>15} {:>8} {:>7}  {}",
+                "{:<width$} {:<6} {:>3} {:>6} {:>4} {:>5} {:>8} {:>8} {:>5} {:>4}  {}",
                 truncate(&name, NAME_WIDTH),
                 w.kind.to_string(),
                 w.threads,
@@ -153,14 +143,15 @@ impl fmt::Display for WorkerTable<'_> {
                 w.duplicates,
                 w.lines_per_request()
                     .map_or("-".to_string(), |r| format!("{r:.1}")),
-                w.rays.total(),
-                secs,
-                format_ray_rate(w.rays.total(), secs),
-                format_ray_rate(w.rays.total(), thread_secs),
+                format_rate_short(w.rays.total(), secs),
+                format_rate_short(w.rays.total(), thread_secs),
                 w.reissued,
                 w.frames_dropped,
-                w.lost.as_deref().unwrap_or("ok"),
+                if w.lost.is_some() { "lost" } else { "ok" },
             )?;
+            if let Some(why) = &w.lost {
+                writeln!(f, "    lost: {why}")?;
+            }
         }
         let checked: Vec<String> = self
             .0

@@ -324,32 +324,39 @@ pub struct Row {
     pub status: String,
 }
 
-/// The per-worker table from a render's stderr: the lines after the header that have a rate.
+/// The per-worker table from a render's stderr: the rows after the header, each lost worker's
+/// status the reason on the indented `lost: REASON` line below its row.
 pub fn table(stderr: &str) -> Vec<Row> {
-    stderr
+    let mut rows: Vec<Row> = Vec::new();
+    let body = stderr
         .lines()
         .skip_while(|l| !(l.starts_with("worker ") && l.trim_end().ends_with("status")))
-        .skip(1)
-        .filter_map(parse_row)
-        .collect()
+        .skip(1);
+    for line in body {
+        match (line.trim_start().strip_prefix("lost: "), rows.last_mut()) {
+            (Some(why), Some(last)) if line.starts_with("    ") => {
+                last.status = why.to_string();
+            }
+            _ => rows.extend(parse_row(line)),
+        }
+    }
+    rows
 }
 
-/// `NAME LINK THREADS LINES DUP LINES/REQ RAYS BUSY RATE.. rays/s RATE.. rays/s REISSUED
-/// DROPPED  STATUS...`.
+/// `NAME LINK THREADS LINES DUP LINES/REQ RATE RATE/THREAD REISSUED DROPPED STATUS`.
 pub fn parse_row(line: &str) -> Option<Row> {
-    let mut cols = line.split_whitespace();
-    let name = cols.next()?.to_string();
-    let threads = cols.nth(1)?.parse().ok()?;
-    let lines = cols.next()?.parse().ok()?;
-    let rest = line[line.rfind("rays/s")? + "rays/s".len()..].trim_start();
-    let (reissued, rest) = rest.split_once(char::is_whitespace)?;
-    let (_dropped, status) = rest.trim_start().split_once(char::is_whitespace)?;
+    let cols: Vec<&str> = line.split_whitespace().collect();
+    let [name, _link, threads, lines, _dup, _lpr, _rate, _per_thread, reissued, _dropped, status] =
+        cols[..]
+    else {
+        return None;
+    };
     Some(Row {
-        name,
-        threads,
-        lines,
+        name: name.to_string(),
+        threads: threads.parse().ok()?,
+        lines: lines.parse().ok()?,
         reissued: reissued.parse().ok()?,
-        status: status.trim().to_string(),
+        status: status.to_string(),
     })
 }
 
