@@ -1098,3 +1098,48 @@ fn render_scenes_to_png() -> TestResult {
     }
     Ok(())
 }
+
+#[test]
+fn a_mesh_file_takes_its_mtl_materials_unless_the_mesh_gives_one() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    std::fs::write(
+        dir.path().join("two.mtl"),
+        "newmtl red\nKd 0.9 0.1 0.1\nnewmtl blue\nKd 0.1 0.1 0.9\n",
+    )?;
+    std::fs::write(
+        dir.path().join("two.obj"),
+        "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\n\
+         usemtl red\nf 1 2 3\nusemtl blue\nf 2 4 3\nusemtl nothing\nf 1 2 4\n",
+    )?;
+    let scene = |mesh: &str| {
+        format!(
+            "scene {{\n  camera {{ position <0, 0, 5> look_at <0, 0, 0> }}\n  \
+             light {{ position <1, 1, 5> }}\n  {mesh}\n}}\n"
+        )
+    };
+    let path = dir.path().join("scene.fart");
+    std::fs::write(&path, scene("mesh { file \"two.obj\" }"))?;
+    let desc = strahl_host::formats::fart::load_fart(&path)?;
+    let diffuse: Vec<Vec3> = desc
+        .triangles
+        .iter()
+        .map(|t| desc.shaders[t.shader as usize].diffuse)
+        .collect();
+    assert_eq!(diffuse[0], Vec3::new(0.9, 0.1, 0.1), "red from the .mtl");
+    assert_eq!(diffuse[1], Vec3::new(0.1, 0.1, 0.9), "blue from the .mtl");
+    assert_ne!(
+        diffuse[2], diffuse[0],
+        "an unknown material keeps the default"
+    );
+    assert_ne!(diffuse[2], diffuse[1]);
+    // The mesh's own material beats the OBJ's.
+    std::fs::write(
+        &path,
+        scene("mesh { file \"two.obj\" material { color <0, 1, 0> } }"),
+    )?;
+    let desc = strahl_host::formats::fart::load_fart(&path)?;
+    let shaders: Vec<u32> = desc.triangles.iter().map(|t| t.shader).collect();
+    assert!(shaders.iter().all(|&s| s == shaders[0]), "{shaders:?}");
+    assert!(desc.shaders[shaders[0] as usize].diffuse.y > 0.5, "the mesh's green");
+    Ok(())
+}

@@ -19,7 +19,7 @@
 //!   coordinates as they are.
 //! - **Normals**: the seed's format has no normals, so `vn` normals are dropped and the renderer
 //!   computes smooth normals from the faces (area-weighted, seed section 3.2.2.1).
-//! - **Materials**: each `.mtl` material used by a face becomes a shader ([`shader_from_mtl`]);
+//! - **Materials**: each `.mtl` material used by a face becomes a shader ([`crate::obj::ObjMaterial::shader`]);
 //!   faces without a known material share one grey shader. Transparency (`d`, `Tr`), textures and
 //!   everything else of the `.mtl` are dropped (the seed's shaders are opaque).
 //! - **Light**: one white shadow-casting light above the model, in front of it and to the left.
@@ -31,7 +31,7 @@
 use crate::config::{write_config, Config};
 use crate::datafile::write_data_file;
 use crate::fs::{refuse_to_replace, write_text_atomically};
-use crate::obj::{read_obj_file, ObjFile, ObjMaterial};
+use crate::obj::{read_obj_file, ObjFile};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -240,21 +240,6 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// The shader of an `.mtl` material: diffuse = `Kd` (0.8 grey if absent); ambient = 0.1 · `Ka`
-/// (0.1 · diffuse if absent: MTL scales `Ka` by an ambient light, which the seed's model lacks,
-/// and 0.1 is the light assumed); specular = `Ks` (black if absent); shininess = `Ns` (10 if
-/// absent, at least 0); no reflection.
-pub fn shader_from_mtl(m: &ObjMaterial) -> Shader {
-    let diffuse = m.diffuse.unwrap_or(Vec3::splat(0.8));
-    Shader::phong(
-        m.ambient.unwrap_or(diffuse) * 0.1,
-        diffuse,
-        m.specular.unwrap_or(Vec3::ZERO),
-        m.shininess.unwrap_or(10.0).max(0.0),
-        0.0,
-    )
-}
-
 /// The grey shader of faces without a material.
 pub fn default_shader() -> Shader {
     Shader::phong(
@@ -305,7 +290,7 @@ fn framed_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, SeedCame
                             m.name
                         ));
                     }
-                    shader_from_mtl(m)
+                    m.shader()
                 }
                 None => default_shader(),
             });

@@ -75,6 +75,23 @@ pub struct ObjMaterial {
     pub dissolve: Option<f32>,
 }
 
+impl ObjMaterial {
+    /// Its shader: diffuse = `Kd` (0.8 grey if absent); ambient = 0.1 · `Ka` (0.1 · diffuse if
+    /// absent: MTL scales `Ka` by an ambient light, which the seed's model lacks, and 0.1 is the
+    /// light assumed); specular = `Ks` (black if absent); shininess = `Ns` (10 if absent, at
+    /// least 0); no reflection.
+    pub fn shader(&self) -> strahl_core::scene::Shader {
+        let diffuse = self.diffuse.unwrap_or(Vec3::splat(0.8));
+        strahl_core::scene::Shader::phong(
+            self.ambient.unwrap_or(diffuse) * 0.1,
+            diffuse,
+            self.specular.unwrap_or(Vec3::ZERO),
+            self.shininess.unwrap_or(10.0).max(0.0),
+            0.0,
+        )
+    }
+}
+
 /// An OBJ file with its materials: what [`read_obj_file`] returns.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ObjFile {

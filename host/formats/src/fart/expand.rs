@@ -24,7 +24,7 @@ use super::parser::{
 use super::{FartError, Pos};
 use crate::error::LoadError;
 use crate::mesh::append_mesh;
-use crate::obj::{read_obj, ObjMesh, ObjTriangle};
+use crate::obj::{read_obj_file, ObjMaterial, ObjMesh, ObjTriangle};
 use glam::Vec3;
 use std::collections::HashMap;
 use std::ops::{Add, Div, Mul, Neg, Sub};
@@ -282,10 +282,19 @@ struct ShapeVal {
     depth: u32,
 }
 
+/// A mesh's triangles and, for a `file` with `.mtl` materials, each triangle's shader.
+#[derive(Debug)]
+struct MeshVal {
+    mesh: ObjMesh,
+    /// One per triangle when the OBJ names materials (`None`: a triangle without one); empty
+    /// otherwise.
+    mtl: Vec<Option<Shader>>,
+}
+
 #[derive(Clone, Debug)]
 enum Node {
     Leaf(Shape),
-    Mesh(Rc<ObjMesh>),
+    Mesh(Rc<MeshVal>),
     Csg(CsgOp, Vec<Rc<ShapeVal>>),
 }
 
@@ -301,7 +310,7 @@ struct Expander {
     scopes: Vec<HashMap<String, Value>>,
     desc: SceneDesc,
     shader_ids: HashMap<[u32; 15], u32>,
-    meshes: HashMap<PathBuf, Rc<ObjMesh>>,
+    meshes: HashMap<PathBuf, Rc<MeshVal>>,
     camera: Option<Pos>,
     options: Option<Pos>,
     shapes: u64,
@@ -1246,21 +1255,32 @@ impl Expander {
         file: Option<(String, Pos)>,
         vertices: Option<(&Vec<Expr>, Pos)>,
         triangles: Option<(&Vec<Expr>, Pos)>,
-    ) -> Res<Rc<ObjMesh>> {
+    ) -> Res<Rc<MeshVal>> {
         match (file, vertices, triangles) {
             (Some((name, pos)), None, None) => {
                 let path = self.folder.join(&name);
                 if let Some(m) = self.meshes.get(&path) {
                     return Ok(Rc::clone(m));
                 }
-                let mesh = read_obj(&path).map_err(|e| match e {
+                let file = read_obj_file(&path).map_err(|e| match e {
                     LoadError::Io { source, .. } => Fail::At(FartError::new(
                         pos,
                         format!("cannot read the mesh file `{name}` ({}): {source}", path.display()),
                     )),
                     other => Fail::Load(other),
                 })?;
-                let mesh = Rc::new(mesh);
+                let mtl = match file.materials.is_empty() {
+                    true => Vec::new(),
+                    false => file
+                        .triangle_materials
+                        .iter()
+                        .map(|m| m.and_then(|i| file.materials.get(i as usize)).map(ObjMaterial::shader))
+                        .collect(),
+                };
+                let mesh = Rc::new(MeshVal {
+                    mesh: file.mesh,
+                    mtl,
+                });
                 self.meshes.insert(path, Rc::clone(&mesh));
                 Ok(mesh)
             }
@@ -1300,10 +1320,13 @@ impl Expander {
                 if tris.is_empty() {
                     return err(tpos, "expected at least one triangle in `triangles`, found none");
                 }
-                Ok(Rc::new(ObjMesh {
-                    points,
-                    normals: Vec::new(),
-                    triangles: tris,
+                Ok(Rc::new(MeshVal {
+                    mesh: ObjMesh {
+                        points,
+                        normals: Vec::new(),
+                        triangles: tris,
+                    },
+                    mtl: Vec::new(),
                 }))
             }
             (None, Some((_, pos)), None) => err(
@@ -1420,7 +1443,8 @@ impl Expander {
     // ---- emission ----
 
     fn emit_object(&mut self, v: &ShapeVal) -> Res<()> {
-        if let Node::Mesh(mesh) = &v.node {
+        if let Node::Mesh(m) = &v.node {
+            let mesh = &m.mesh;
             self.triangles = self.triangles.saturating_add(mesh.triangles.len() as u64);
             if self.triangles > MAX_TRIANGLES {
                 return err(
@@ -1430,7 +1454,16 @@ impl Expander {
             }
             check_placement(v.pos, &v.transform)?;
             let shader = self.shader_id(v.material.unwrap_or(DEFAULT_MATERIAL));
+            let first = self.desc.triangles.len();
             append_mesh(&mut self.desc, mesh, &v.transform, shader);
+            // The OBJ's own materials, unless the mesh gives one.
+            if v.material.is_none() {
+                for (i, mtl) in m.mtl.iter().enumerate() {
+                    if let Some(s) = mtl {
+                        self.desc.triangles[first + i].shader = self.shader_id(*s);
+                    }
+                }
+            }
             return Ok(());
         }
         let root = self.emit_solid(v, &Transform::IDENTITY, None)?;
@@ -1483,8 +1516,10 @@ impl Expander {
                     _ => self.fold(*op, &ids),
                 })
             }
-            Node::Mesh(mesh) => {
-                // A CSG operand: the mesh's triangles in object space, as a closed solid.
+            Node::Mesh(m) => {
+                // A CSG operand: the mesh's triangles in object space, as a closed solid, with
+                // one material (the solid's; a CSG mesh does not take the OBJ's materials).
+                let mesh = &m.mesh;
                 self.triangles = self.triangles.saturating_add(mesh.triangles.len() as u64);
                 if self.triangles > MAX_TRIANGLES {
                     return err(
