@@ -1140,6 +1140,9 @@ fn a_mesh_file_takes_its_mtl_materials_unless_the_mesh_gives_one() -> TestResult
     let desc = strahl_host::formats::fart::load_fart(&path)?;
     let shaders: Vec<u32> = desc.triangles.iter().map(|t| t.shader).collect();
     assert!(shaders.iter().all(|&s| s == shaders[0]), "{shaders:?}");
-    assert!(desc.shaders[shaders[0] as usize].diffuse.y > 0.5, "the mesh's green");
+    assert!(
+        desc.shaders[shaders[0] as usize].diffuse.y > 0.5,
+        "the mesh's green"
+    );
     Ok(())
 }

@@ -342,7 +342,9 @@ fn convert_output_loads_and_renders() {
             summary.shaders,
             summary.lights
         ),
-        (8, 12, 3, 1)
+        // A point per face at each corner: the cube's 90° edges are sharper than the default
+        // crease angle.
+        (24, 12, 3, 1)
     );
     assert_eq!(summary.normals_dropped, 6);
     assert_eq!(summary.config_file, dir.path().join("raytracer.cfg"));
@@ -373,7 +375,11 @@ fn convert_output_loads_and_renders() {
     assert_eq!(loaded.data_path, out);
     assert_eq!(loaded.output, dir.path().join("CUBE.bmp"));
     let mut desc = loaded.desc;
-    assert_eq!(desc.points.len(), 8);
+    assert_eq!(
+        desc.points.len(),
+        24,
+        "3 per corner: the data file carries the hard edges"
+    );
     assert_eq!(desc.points[6], y_up_to_z_up(Vec3::ONE));
     assert_eq!(desc.points[6], Vec3::new(1.0, -1.0, 1.0));
     assert_eq!(desc.triangles.len(), 12);
@@ -417,7 +423,28 @@ fn convert_can_keep_z_up_and_rejects_bad_names() {
     assert!(!s.to_string().contains("normals from the OBJ"));
     let loaded =
         load_config_scene(&s.config_file, &Overrides::default()).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(loaded.desc.points, CUBE_POINTS);
+    assert_eq!(
+        loaded.desc.points[..8],
+        CUBE_POINTS,
+        "the OBJ's points first"
+    );
+    assert_eq!(
+        loaded.desc.points.len(),
+        24,
+        "then their copies at the hard edges"
+    );
+    // At 180° every edge is smooth and every point shared, as before crease angles.
+    let smooth = dir.path().join("smooth");
+    std::fs::create_dir(&smooth).expect("folder");
+    let all_smooth = ConvertOptions {
+        y_up: false,
+        crease_degrees: 180.0,
+        ..ConvertOptions::default()
+    };
+    let s = convert_obj_with(&fixture("cube.obj"), &smooth.join("c.txt"), &all_smooth)
+        .unwrap_or_else(|e| panic!("{e:#}"));
+    assert_eq!(s.points, 8);
+    assert!(!s.to_string().contains("kept hard"), "{s}");
 
     let err = convert_obj(&fixture("cube.obj"), &dir.path().join("raytracer.cfg"))
         .expect_err("clashes with the configuration file");

@@ -45,7 +45,7 @@ const FORMATS: LayerMap = LayerMap {
     layers: &[
         &["error", "fs", "limits"],
         &["lines"],
-        &["config", "datafile", "obj", "hosts"],
+        &["config", "datafile", "obj", "hosts", "crease"],
         &["mesh", "nff", "fart"],
         &["convert", "load"],
     ],

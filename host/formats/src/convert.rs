@@ -29,6 +29,7 @@
 //! `raytracer.cfg` says "Datei nicht verändern!": do not change this file).
 
 use crate::config::{write_config, Config};
+use crate::crease::{split_creases, DEFAULT_CREASE_DEGREES};
 use crate::datafile::write_data_file;
 use crate::fs::{refuse_to_replace, write_text_atomically};
 use crate::obj::{read_obj_file, ObjFile};
@@ -53,7 +54,7 @@ pub const TILT_DEG: f32 = -15.0;
 pub const BACKGROUND: Vec3 = Vec3::new(0.15, 0.15, 0.18);
 
 /// How [`convert_obj_with`] converts.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ConvertOptions {
     /// The OBJ is Y-up (OBJ's convention, the default): turn it to the seed's Z-up with
     /// `(x, y, z) → (x, −z, y)`. `false` keeps the coordinates.
@@ -61,6 +62,9 @@ pub struct ConvertOptions {
     /// Replace a data file or `raytracer.cfg` that is there already (`--force`); without it,
     /// an existing file is an error that names it.
     pub force: bool,
+    /// Faces meeting at more than this angle (degrees) keep a hard edge: their shared points are
+    /// split ([`crate::crease`]); 180 keeps every point shared (all smooth).
+    pub crease_degrees: f32,
 }
 
 impl Default for ConvertOptions {
@@ -68,6 +72,7 @@ impl Default for ConvertOptions {
         ConvertOptions {
             y_up: true,
             force: false,
+            crease_degrees: DEFAULT_CREASE_DEGREES,
         }
     }
 }
@@ -87,6 +92,10 @@ pub struct ConvertSummary {
     pub lights: usize,
     /// Normals of the OBJ (`vn`) that the seed's format cannot hold.
     pub normals_dropped: usize,
+    /// Points added to keep edges sharper than the crease angle hard.
+    pub points_split: usize,
+    /// The crease angle used, in degrees.
+    pub crease_degrees: f32,
     /// Whether the axes were turned from Y-up to Z-up.
     pub y_up: bool,
     /// The data file written.
@@ -124,6 +133,14 @@ impl fmt::Display for ConvertSummary {
             writeln!(
                 f,
                 "axes: the OBJ's Y-up turned to the seed's Z-up, (x, y, z) -> (x, -z, y)"
+            )?;
+        }
+        if self.points_split > 0 {
+            writeln!(
+                f,
+                "edges sharper than {}° kept hard: {} added (a point per face group)",
+                self.crease_degrees,
+                count(self.points_split, "point")
             )?;
         }
         if self.normals_dropped > 0 {
@@ -225,6 +242,8 @@ pub fn convert_obj_with(
         shaders: desc.shaders.len(),
         lights: desc.lights.len(),
         normals_dropped: obj.mesh.normals.len(),
+        points_split: desc.points.len() - obj.mesh.points.len(),
+        crease_degrees: options.crease_degrees,
         y_up: options.y_up,
         data_file: output.to_path_buf(),
         config_file,
@@ -269,7 +288,7 @@ pub fn obj_to_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, Vec<
 /// is written from it without looking into [`SceneDesc::camera`] again.
 fn framed_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, SeedCamera, Vec<String>) {
     let mut warnings = Vec::new();
-    let points: Vec<Vec3> = if options.y_up {
+    let mut points: Vec<Vec3> = if options.y_up {
         obj.mesh.points.iter().map(|&p| y_up_to_z_up(p)).collect()
     } else {
         obj.mesh.points.clone()
@@ -298,6 +317,7 @@ fn framed_scene(obj: &ObjFile, options: &ConvertOptions) -> (SceneDesc, SeedCame
         });
         triangles.push(TriangleDesc::new(t.points, shader));
     }
+    split_creases(&mut points, &mut triangles, options.crease_degrees);
 
     let (centre, radius) = bounding_sphere(&points);
     let lights = vec![Light {

@@ -10,6 +10,7 @@
 //! | [`nff`] | Eric Haines' Neutral File Format (`.nff`) | [`nff::load_nff`] | |
 //! | [`obj`] | Wavefront OBJ meshes and their `.mtl` materials | [`obj::read_obj_file`] | |
 //! | [`mesh`] | placing a read mesh into a scene | | |
+//! | [`crease`] | hard edges where a format has no normals: points split at sharp angles | | |
 //! | [`fart`] | FART's scene language (`.fart`): lexer, parser, expander | [`fart::load_fart`] | |
 //! | [`hosts`] | FART's hosts file | [`hosts::read_hosts_file`] | |
 //! | [`load`] | a whole scene, the reader picked by extension, with the command line's overrides | [`load::load_scene`] | |
@@ -25,6 +26,7 @@
 
 pub mod config;
 pub mod convert;
+pub mod crease;
 pub mod datafile;
 pub mod error;
 pub mod fart;
