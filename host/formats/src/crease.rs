@@ -48,12 +48,11 @@ pub fn split_creases(
             let index = match groups.iter().find(|(first, _)| first.dot(n) >= cos_limit) {
                 Some(&(_, index)) => index,
                 None => {
-                    let index = match groups.is_empty() {
-                        true => p as u32,
-                        false => {
-                            points.push(points[p]);
-                            (points.len() - 1) as u32
-                        }
+                    let index = if groups.is_empty() {
+                        p as u32
+                    } else {
+                        points.push(points[p]);
+                        (points.len() - 1) as u32
                     };
                     groups.push((n, index));
                     index

@@ -453,27 +453,12 @@ impl RenderArgs {
 /// no image is written).
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let start = Instant::now();
-    scene_format(&args.config)?;
-    if args.workers == Some(0) && !args.cluster.has_remote() {
-        return Err(usage(
-            "--workers 0 leaves no worker: name workers with --worker HOST[:PORT], --hosts FILE, \
-             --listen ADDR (workers dial in), --serial PATH, or give --workers N for threads here",
-        ));
-    }
-    let loaded = load_scene(&args.config, &args.overrides())?;
+    let Checked {
+        loaded,
+        kind,
+        secret,
+    } = check_before_render(args)?;
     let load = start.elapsed();
-    // Fail before the long part if the image or the statistics cannot be written.
-    let kind = check_output_path(&loaded.output, args.format)?;
-    if let Some(r) = args.region {
-        let s = &loaded.desc.settings;
-        r.check(s.width, s.height).map_err(usage)?;
-    }
-    let secret = load_secret(args.cluster.secret_file.as_deref())?;
-    check_image_memory(&loaded, crate::util::sys::available_memory())?;
-    if let Some(stats) = &args.stats_json {
-        check_stats_path(stats)?;
-    }
-
     let view = match &args.view {
         Some(address) => Some(start_view(
             address,
@@ -487,10 +472,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let build_start = Instant::now();
     let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
-    let scene = &prepared.scene;
-    let settings = scene.settings;
-
-    let progress = Progress::new(settings.height, args.quiet);
+    let progress = Progress::new(prepared.scene.settings.height, args.quiet);
     let warn = |msg: &str| {
         if !args.quiet {
             progress.println(&format!("warning: {msg}"));
@@ -514,18 +496,89 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         });
     }
     let image = image?;
-    // Waiting for workers and the scene's transfer are not tracing.
-    let render = image
-        .first_request
-        .map_or_else(|| render_start.elapsed(), |t| t.max(render_start).elapsed());
-
-    let summary = RenderSummary {
-        width: settings.width,
-        height: settings.height,
+    let times = Times {
         total: start.elapsed(),
         load,
         octree_build,
-        render,
+        // Waiting for workers and the scene's transfer are not tracing.
+        render: image
+            .first_request
+            .map_or_else(|| render_start.elapsed(), |t| t.max(render_start).elapsed()),
+    };
+    report(args, &loaded, &prepared, &image, times)?;
+    if let Some((server, _)) = view {
+        serve_until_ctrl_c(&server);
+    }
+    Ok(())
+}
+
+/// What [`check_before_render`] found usable.
+struct Checked {
+    loaded: LoadedScene,
+    kind: ImageKind,
+    secret: Option<Secret>,
+}
+
+/// Everything that can fail before the long part: the scene's type, a worker to render with,
+/// the scene itself, the image's name and format, the region, the secret, the memory for the
+/// pixels, the statistics' path.
+///
+/// # Errors
+/// The first of these that fails, usage errors as such.
+fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
+    scene_format(&args.config)?;
+    if args.workers == Some(0) && !args.cluster.has_remote() {
+        return Err(usage(
+            "--workers 0 leaves no worker: name workers with --worker HOST[:PORT], --hosts FILE, \
+             --listen ADDR (workers dial in), --serial PATH, or give --workers N for threads here",
+        ));
+    }
+    let loaded = load_scene(&args.config, &args.overrides())?;
+    let kind = check_output_path(&loaded.output, args.format)?;
+    if let Some(r) = args.region {
+        let s = &loaded.desc.settings;
+        r.check(s.width, s.height).map_err(usage)?;
+    }
+    let secret = load_secret(args.cluster.secret_file.as_deref())?;
+    check_image_memory(&loaded, crate::util::sys::available_memory())?;
+    if let Some(stats) = &args.stats_json {
+        check_stats_path(stats)?;
+    }
+    Ok(Checked {
+        loaded,
+        kind,
+        secret,
+    })
+}
+
+/// Wall times of a render's parts.
+struct Times {
+    total: Duration,
+    load: Duration,
+    octree_build: Duration,
+    render: Duration,
+}
+
+/// Writes the statistics (`--stats-json`) and, unless `-q`, prints the summary, the effects
+/// and the worker table.
+///
+/// # Errors
+/// The statistics cannot be written (the image is then removed too).
+fn report(
+    args: &RenderArgs,
+    loaded: &LoadedScene,
+    prepared: &PreparedScene,
+    image: &ClusterImage,
+    times: Times,
+) -> anyhow::Result<()> {
+    let scene = &prepared.scene;
+    let summary = RenderSummary {
+        width: scene.settings.width,
+        height: scene.settings.height,
+        total: times.total,
+        load: times.load,
+        octree_build: times.octree_build,
+        render: times.render,
         triangles: scene.triangle_points.len(),
         solids: scene.solids.len(),
         octree: *scene.octree.stats(),
@@ -536,7 +589,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         output: loaded.output.clone(),
     };
     if let Some(path) = &args.stats_json {
-        let stats = RenderStats::new(&summary, settings.samples, scene.effects, &image.workers);
+        let stats = RenderStats::new(
+            &summary,
+            scene.settings.samples,
+            scene.effects,
+            &image.workers,
+        );
         write_stats(path, &stats, &loaded.output)?;
     }
     if !args.quiet {
@@ -544,17 +602,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         eprintln!("effects: {}", scene.effects.describe());
         eprint!("{}", WorkerTable(&image.workers));
     }
-    if let Some((server, _)) = view {
-        eprintln!(
-            "view: the render is done; still serving {} until Ctrl-C",
-            server.url
-        );
-        let stop = stop_on_ctrl_c();
-        while !stop.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(100));
-        }
-    }
     Ok(())
+}
+
+/// After a render with `--view`: the page keeps serving until Ctrl-C, and says so.
+fn serve_until_ctrl_c(server: &ViewServer) {
+    eprintln!(
+        "view: the render is done; still serving {} until Ctrl-C",
+        server.url
+    );
+    let stop = stop_on_ctrl_c();
+    while !stop.load(Ordering::Relaxed) {
+        std::thread::sleep(Duration::from_millis(100));
+    }
 }
 
 /// Starts the view's server at `address` and prints its URL (also with `-q`: it is what the
@@ -678,18 +738,10 @@ fn render_and_write(
     let checkpoint = take(checkpoint);
     let image = match image {
         Ok(image) => image,
-        Err(ClusterError::AllWorkersLost { workers, .. }) if workers.is_empty() => {
-            let why = match listened {
-                Some(address) => anyhow!(
-                    "no worker joined at {address} within {} s (--worker-timeout); start \
-                     workers with `strahl worker --connect {address}`",
-                    args.cluster.worker_timeout
-                ),
-                None => anyhow!("no worker to render with"),
-            };
-            return Err(with_resume_hint(why, checkpoint));
+        Err(e) => {
+            let e = why_no_image(e, listened, args.cluster.worker_timeout);
+            return Err(with_resume_hint(e, checkpoint));
         }
-        Err(e) => return Err(with_resume_hint(e.into(), checkpoint)),
     };
     write_output(args.region, args.keep_size, output, prepared, &image.pixels)?;
     // (None: writing it failed, as was warned.)
@@ -697,6 +749,27 @@ fn render_and_write(
         c.remove()?;
     }
     Ok(image)
+}
+
+/// Why the master gave no image, in words: when no worker ever joined a listening master,
+/// where it waited and how workers join.
+fn why_no_image(
+    e: ClusterError,
+    listened: Option<std::net::SocketAddr>,
+    timeout_secs: f64,
+) -> anyhow::Error {
+    match (e, listened) {
+        (ClusterError::AllWorkersLost { workers, .. }, Some(address)) if workers.is_empty() => {
+            anyhow!(
+                "no worker joined at {address} within {timeout_secs} s (--worker-timeout); \
+                 start workers with `strahl worker --connect {address}`"
+            )
+        }
+        (ClusterError::AllWorkersLost { workers, .. }, None) if workers.is_empty() => {
+            anyhow!("no worker to render with")
+        }
+        (e, _) => e.into(),
+    }
 }
 
 /// Where the image goes and in which format.

@@ -276,9 +276,10 @@ fn listen_and_launch(
     } else {
         listen_endpoint(&endpoint, args.secret, args.insecure, "this master")?
     };
-    let allocation = match args.slurm {
-        true => Some(slurm_allocation(&endpoint)?),
-        false => None,
+    let allocation = if args.slurm {
+        Some(slurm_allocation(&endpoint)?)
+    } else {
+        None
     };
     let (acceptor, joins) = accept_workers(&endpoint)?;
     let master = if acceptor.address.ip().is_unspecified() {

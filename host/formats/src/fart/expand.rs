@@ -1249,6 +1249,42 @@ impl Expander {
         Ok(def)
     }
 
+    /// The mesh in the OBJ file `name` (relative to the scene's folder, read once), with each
+    /// triangle's `.mtl` shader.
+    fn mesh_file(&mut self, name: &str, pos: Pos) -> Res<Rc<MeshVal>> {
+        let path = self.folder.join(name);
+        if let Some(m) = self.meshes.get(&path) {
+            return Ok(Rc::clone(m));
+        }
+        let file = read_obj_file(&path).map_err(|e| match e {
+            LoadError::Io { source, .. } => Fail::At(FartError::new(
+                pos,
+                format!(
+                    "cannot read the mesh file `{name}` ({}): {source}",
+                    path.display()
+                ),
+            )),
+            other => Fail::Load(other),
+        })?;
+        let mtl = if file.materials.is_empty() {
+            Vec::new()
+        } else {
+            file.triangle_materials
+                .iter()
+                .map(|m| {
+                    m.and_then(|i| file.materials.get(i as usize))
+                        .map(ObjMaterial::shader)
+                })
+                .collect()
+        };
+        let mesh = Rc::new(MeshVal {
+            mesh: file.mesh,
+            mtl,
+        });
+        self.meshes.insert(path, Rc::clone(&mesh));
+        Ok(mesh)
+    }
+
     fn mesh(
         &mut self,
         ast: &ShapeAst,
@@ -1257,33 +1293,7 @@ impl Expander {
         triangles: Option<(&Vec<Expr>, Pos)>,
     ) -> Res<Rc<MeshVal>> {
         match (file, vertices, triangles) {
-            (Some((name, pos)), None, None) => {
-                let path = self.folder.join(&name);
-                if let Some(m) = self.meshes.get(&path) {
-                    return Ok(Rc::clone(m));
-                }
-                let file = read_obj_file(&path).map_err(|e| match e {
-                    LoadError::Io { source, .. } => Fail::At(FartError::new(
-                        pos,
-                        format!("cannot read the mesh file `{name}` ({}): {source}", path.display()),
-                    )),
-                    other => Fail::Load(other),
-                })?;
-                let mtl = match file.materials.is_empty() {
-                    true => Vec::new(),
-                    false => file
-                        .triangle_materials
-                        .iter()
-                        .map(|m| m.and_then(|i| file.materials.get(i as usize)).map(ObjMaterial::shader))
-                        .collect(),
-                };
-                let mesh = Rc::new(MeshVal {
-                    mesh: file.mesh,
-                    mtl,
-                });
-                self.meshes.insert(path, Rc::clone(&mesh));
-                Ok(mesh)
-            }
+            (Some((name, pos)), None, None) => self.mesh_file(&name, pos),
             (Some((_, pos)), _, _) => err(
                 pos,
                 "expected either `file` or `vertices` and `triangles` in a `mesh`, found both",
