@@ -110,6 +110,10 @@ impl Link {
         let closed = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let flag = std::sync::Arc::clone(&closed);
         let hang_up_flag = std::sync::Arc::clone(&closed);
+        let writer = PatientWriter {
+            inner: port,
+            closed: std::sync::Arc::clone(&closed),
+        };
         Ok(Link {
             address,
             kind: LinkKind::Serial,
@@ -117,13 +121,45 @@ impl Link {
                 inner: reader,
                 closed,
             }),
-            writer: Box::new(port),
+            writer: Box::new(writer),
             closer: Box::new(move || flag.store(true, std::sync::atomic::Ordering::Relaxed)),
             // A serial line has no reset: the worker reads what was sent whatever the master does.
             hang_up: Box::new(move || {
                 hang_up_flag.store(true, std::sync::atomic::Ordering::Relaxed);
             }),
         })
+    }
+}
+
+/// A serial port's writer that waits through the port's time-outs: a slow line (a board that
+/// takes a byte at a time) is not a broken one. A worker that stops reading for good is
+/// dropped by the master's worker time-out, which closes the link and ends the wait.
+struct PatientWriter<W> {
+    inner: W,
+    closed: std::sync::Arc<std::sync::atomic::AtomicBool>,
+}
+
+impl<W: Write> Write for PatientWriter<W> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        loop {
+            match self.inner.write(buf) {
+                Err(e)
+                    if e.kind() == std::io::ErrorKind::TimedOut
+                        && !self.closed.load(std::sync::atomic::Ordering::Relaxed) => {}
+                other => return other,
+            }
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        loop {
+            match self.inner.flush() {
+                Err(e)
+                    if e.kind() == std::io::ErrorKind::TimedOut
+                        && !self.closed.load(std::sync::atomic::Ordering::Relaxed) => {}
+                other => return other,
+            }
+        }
     }
 }
 
