@@ -1099,7 +1099,9 @@ fn worker_joins_a_master_with_none() {
 fn worker_whose_link_only_carries_garbage_is_dropped() {
     // Every byte from worker 1 has a flipped bit: its frames all fail their CRC, so the master
     // hears only bad frames. It never gets a line; the clean worker finishes the image (too
-    // fast for the garbage worker's time-out, so it need not be reported lost).
+    // fast for the garbage worker's time-out, so it need not be reported lost). The clean
+    // worker's answers take 20 ms to arrive, so the render lasts until the garbage has been
+    // heard (without it, the clean worker could finish before the first garbage frame).
     let prepared = room(32, 24);
     let want = reference(&prepared);
     let cache = prepared.cache();
@@ -1107,10 +1109,14 @@ fn worker_whose_link_only_carries_garbage_is_dropped() {
         up: flips(1.0, 7),
         ..SimWorker::default()
     };
-    let links = vec![
-        sim(1, garbage, &cache),
-        sim(2, SimWorker::default(), &cache),
-    ];
+    let slow = SimWorker {
+        up: LinkModel {
+            latency: Duration::from_millis(20),
+            ..LinkModel::default()
+        },
+        ..SimWorker::default()
+    };
+    let links = vec![sim(1, garbage, &cache), sim(2, slow, &cache)];
     let image = master(&prepared, links, None, &options(2, 400), &|_| {}).expect("image");
     assert_same_image(&image, &want, "one garbage link");
     let bad = report(&image.workers, "sim 1");
