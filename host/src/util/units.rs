@@ -3,37 +3,38 @@
 
 /// `rays` traced in `secs` seconds, as a short rate such as `2.15 M rays/s`.
 pub fn format_ray_rate(rays: u64, secs: f64) -> String {
-    if secs <= 0.0 || !secs.is_finite() {
-        return "- rays/s".to_string();
-    }
-    let rate = rays as f64 / secs;
-    if rate >= 1e9 {
-        format!("{:.2} G rays/s", rate / 1e9)
-    } else if rate >= 1e6 {
-        format!("{:.2} M rays/s", rate / 1e6)
-    } else if rate >= 1e3 {
-        format!("{:.1} k rays/s", rate / 1e3)
-    } else {
-        format!("{rate:.0} rays/s")
+    match scaled_rate(rays, secs) {
+        Some((number, "")) => format!("{number} rays/s"),
+        Some((number, unit)) => format!("{number} {unit} rays/s"),
+        None => "- rays/s".to_string(),
     }
 }
 
 /// A rate of `count` per `secs` as a short number for tables: `1.50M`, `239.2k`, `950`, or `-`
 /// for no time.
 pub fn format_rate_short(count: u64, secs: f64) -> String {
+    match scaled_rate(count, secs) {
+        Some((number, unit)) => format!("{number}{unit}"),
+        None => "-".to_string(),
+    }
+}
+
+/// `count / secs` as a number of three or four digits and its unit (`G`, `M`, `k` or none);
+/// `None` for no time.
+fn scaled_rate(count: u64, secs: f64) -> Option<(String, &'static str)> {
     if secs <= 0.0 || !secs.is_finite() {
-        return "-".to_string();
+        return None;
     }
     let rate = count as f64 / secs;
-    if rate >= 1e9 {
-        format!("{:.2}G", rate / 1e9)
+    Some(if rate >= 1e9 {
+        (format!("{:.2}", rate / 1e9), "G")
     } else if rate >= 1e6 {
-        format!("{:.2}M", rate / 1e6)
+        (format!("{:.2}", rate / 1e6), "M")
     } else if rate >= 1e3 {
-        format!("{:.1}k", rate / 1e3)
+        (format!("{:.1}", rate / 1e3), "k")
     } else {
-        format!("{rate:.0}")
-    }
+        (format!("{rate:.0}"), "")
+    })
 }
 
 /// `n` with its digits grouped by thousands: `16,476,814`.
