@@ -173,7 +173,7 @@ impl State {
         }
         let rate = format_ray_rate(r1 - r0, secs);
         let per_line = secs / f64::from(d1 - d0);
-        let left = per_line * f64::from(self.total - self.done);
+        let left = per_line * f64::from(self.total.saturating_sub(self.done));
         format!("{rate}, about {} left", format_seconds(left))
     }
 }

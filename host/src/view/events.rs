@@ -112,7 +112,8 @@ impl Progress {
         } else {
             0.0
         };
-        let seconds_left = (done > 0).then(|| seconds * f64::from(total - done) / f64::from(done));
+        let seconds_left =
+            (done > 0).then(|| seconds * f64::from(total.saturating_sub(done)) / f64::from(done));
         Progress {
             done,
             total,
