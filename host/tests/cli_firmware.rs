@@ -143,9 +143,10 @@ fn the_emulated_board_renders_alone_mixed_refuses_too_much_and_its_loss_costs_no
     }
     let elf = firmware()?;
     let dir = tempfile::tempdir()?;
-    let reference = |size: (u32, u32)| -> Result<Vec<u8>, Box<dyn Error>> {
-        let out = dir.path().join(format!("ref-{}x{}.bmp", size.0, size.1));
-        room(&out, size, &["--workers", "1", "-q"])?.assert_success();
+    // The image one in-process worker renders of the room at `size` with `extra` options.
+    let reference = |size: (u32, u32), extra: &[&str]| -> Result<Vec<u8>, Box<dyn Error>> {
+        let out = dir.path().join("reference.bmp");
+        room(&out, size, &[&["--workers", "1", "-q"][..], extra].concat())?.assert_success();
         Ok(std::fs::read(out)?)
     };
 
@@ -159,7 +160,7 @@ fn the_emulated_board_renders_alone_mixed_refuses_too_much_and_its_loss_costs_no
     )?;
     r.assert_success();
     assert!(
-        std::fs::read(&alone)? == reference((64, 48))?,
+        std::fs::read(&alone)? == reference((64, 48), &[])?,
         "the board's image differs:\n{}",
         r.stderr
     );
@@ -179,27 +180,8 @@ fn the_emulated_board_renders_alone_mixed_refuses_too_much_and_its_loss_costs_no
         &["-m", "3", "--workers", "1", "--serial", &board.pty],
     )?;
     r.assert_success();
-    let scene = room_config().display().to_string();
-    let reference_m3 = dir.path().join("ref-m3.bmp");
-    let rm = reference_m3.display().to_string();
-    finish(Proc::spawn(&[
-        "render",
-        &scene,
-        "-o",
-        &rm,
-        "-w",
-        "64",
-        "-h",
-        "48",
-        "-m",
-        "3",
-        "--workers",
-        "1",
-        "-q",
-    ])?)?
-    .assert_success();
     assert!(
-        std::fs::read(&mixed)? == std::fs::read(&reference_m3)?,
+        std::fs::read(&mixed)? == reference((64, 48), &["-m", "3"])?,
         "mixed image differs:\n{}",
         r.stderr
     );
@@ -304,26 +286,8 @@ fn the_emulated_board_renders_alone_mixed_refuses_too_much_and_its_loss_costs_no
     board.kill();
     let r = finish(render)?;
     r.assert_success();
-    let scene_ref = dir.path().join("ref-lost.bmp");
-    let sr = scene_ref.display().to_string();
-    finish(Proc::spawn(&[
-        "render",
-        &scene,
-        "-o",
-        &sr,
-        "-w",
-        "160",
-        "-h",
-        "120",
-        "-m",
-        "4",
-        "--workers",
-        "1",
-        "-q",
-    ])?)?
-    .assert_success();
     assert!(
-        std::fs::read(&lost)? == std::fs::read(&scene_ref)?,
+        std::fs::read(&lost)? == reference((160, 120), &["-m", "4"])?,
         "image after the reset differs:\n{}",
         r.stderr
     );

@@ -77,11 +77,6 @@ impl Hub {
         s.broadcast(event);
     }
 
-    /// The form's settings, if this view has a form.
-    pub fn settings(&self) -> Option<Settings> {
-        self.lock().settings.clone()
-    }
-
     /// A new render of `width × height` begins: the pages clear their canvas.
     pub fn begin(&self, width: u32, height: u32) {
         let mut s = self.lock();
@@ -153,12 +148,6 @@ impl Hub {
     /// The status now.
     pub fn status(&self) -> Status {
         self.lock().status.clone()
-    }
-
-    /// The render's size and 8-bit pixels so far, if one has begun.
-    pub fn image(&self) -> Option<(u32, u32, Vec<u8>)> {
-        let s = self.lock();
-        s.frame.as_ref().map(|f| (f.width, f.height, f.rgb.clone()))
     }
 
     /// Subscribes a page: the events that draw the state now, and the queue of the changes
