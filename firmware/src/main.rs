@@ -2,7 +2,9 @@
 //! board's UART ([`uart`]), with a fixed heap for the scene and its octree.
 //!
 //! The board announces the heap it can give a scene in its `Hello` (`scene_memory`), so a
-//! master refuses it a scene that would not fit and gives its lines to the others. A panic
+//! master refuses it a scene that would not fit and gives its lines to the others. A shared
+//! secret is built in (`STRAHL_FIRMWARE_SECRET_FILE`), and the handshake's nonces come from
+//! [`entropy`]. A panic
 //! writes its message to the UART (the master drops it as a bad frame and loses the worker)
 //! and halts. Built for QEMU's `mps2-an386` (`memory.x`, UART0 at `0x4000_4000`); README,
 //! "A microcontroller in the cluster", says how to build it for a real board of the family.
@@ -11,13 +13,13 @@
 
 extern crate alloc;
 
+mod entropy;
 mod uart;
 
 use core::mem::MaybeUninit;
-use core::sync::atomic::{AtomicU32, Ordering};
 use cortex_m_rt::entry;
 use embedded_alloc::LlffHeap as Heap;
-use strahl_core::wire::auth::Nonce;
+use strahl_core::wire::auth::MIN_SECRET_LEN;
 use strahl_core::worker::{serve, NodeInfo, SceneCache};
 
 /// UART0 of the MPS2 AN386.
@@ -32,23 +34,15 @@ const HEAP_RESERVE: usize = 256 * 1024;
 #[global_allocator]
 static HEAP: Heap = Heap::empty();
 
-/// Handshakes so far, mixed into each nonce.
-static HANDSHAKES: AtomicU32 = AtomicU32::new(0);
+/// The shared secret masters must prove they hold: the file named by
+/// `STRAHL_FIRMWARE_SECRET_FILE` when the firmware was built (its trailing line break dropped, as
+/// `strahl` reads a secret file), or none (empty).
+const SECRET: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/secret"));
 
-/// A nonce for a handshake. This board has no random source: the nonce is the handshake
-/// counter and the cycle counter, unique per handshake but predictable, so a board used with a
-/// shared secret must take its nonces from a hardware RNG instead.
-fn nonce() -> Nonce {
-    let n = HANDSHAKES.fetch_add(1, Ordering::Relaxed);
-    let cycles = cortex_m::peripheral::DWT::cycle_count();
-    let mut out = [0u8; 32];
-    for (i, chunk) in out.chunks_exact_mut(4).enumerate() {
-        let word = n.wrapping_mul(0x9E37_79B9).rotate_left(i as u32 * 5)
-            ^ cycles.rotate_left(i as u32 * 3);
-        chunk.copy_from_slice(&word.to_le_bytes());
-    }
-    out
-}
+const _: () = assert!(
+    SECRET.is_empty() || SECRET.len() >= MIN_SECRET_LEN,
+    "the secret in STRAHL_FIRMWARE_SECRET_FILE is shorter than MIN_SECRET_LEN bytes"
+);
 
 /// The heap's memory.
 static mut HEAP_MEM: [MaybeUninit<u8>; HEAP_SIZE] = [MaybeUninit::uninit(); HEAP_SIZE];
@@ -59,18 +53,17 @@ fn main() -> ! {
     // nothing else touches `HEAP_MEM`.
     unsafe { HEAP.init(&raw mut HEAP_MEM as usize, HEAP_SIZE) }
     if let Some(mut p) = cortex_m::Peripherals::take() {
-        p.DCB.enable_trace();
-        p.DWT.enable_cycle_counter();
+        entropy::start(&mut p.SYST);
     }
     // SAFETY: UART0 is this board's, and only this worker uses it.
-    let mut link = unsafe { uart::Uart::new(UART0, 16) };
+    let mut link = entropy::Stirred(unsafe { uart::Uart::new(UART0, 16) });
     let node = NodeInfo {
         name: "mps2-an386",
         arch: "thumbv7em",
         scene_memory: (HEAP_SIZE - HEAP_RESERVE) as u64,
         threads: 1,
-        secret: None,
-        nonce,
+        secret: (!SECRET.is_empty()).then_some(SECRET),
+        nonce: entropy::nonce,
     };
     let mut cache = SceneCache::new();
     loop {

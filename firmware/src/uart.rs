@@ -8,11 +8,25 @@ use core::ptr::{read_volatile, write_volatile};
 const DATA: usize = 0x00;
 const STATE: usize = 0x04;
 const CTRL: usize = 0x08;
+const INTSTATUS: usize = 0x0C;
 const BAUDDIV: usize = 0x10;
 const TX_FULL: u32 = 1 << 0;
 const RX_FULL: u32 = 1 << 1;
 const TX_ENABLE: u32 = 1 << 0;
 const RX_ENABLE: u32 = 1 << 1;
+const RX_INTERRUPT_ENABLE: u32 = 1 << 3;
+const RX_INTERRUPT: u32 = 1 << 1;
+
+/// The NVIC line of UART0's receive interrupt on the MPS2 boards.
+#[derive(Clone, Copy)]
+struct Uart0Rx;
+
+// SAFETY: 0 is the receive interrupt's line, within the NVIC's range.
+unsafe impl cortex_m::interrupt::InterruptNumber for Uart0Rx {
+    fn number(self) -> u16 {
+        0
+    }
+}
 
 /// A CMSDK UART at a base address.
 pub struct Uart {
@@ -29,8 +43,16 @@ impl Uart {
         // SAFETY: the caller vouches for the address; these are the device's registers.
         unsafe {
             write_volatile((base + BAUDDIV) as *mut u32, bauddiv.max(16));
-            write_volatile((base + CTRL) as *mut u32, TX_ENABLE | RX_ENABLE);
+            write_volatile(
+                (base + CTRL) as *mut u32,
+                TX_ENABLE | RX_ENABLE | RX_INTERRUPT_ENABLE,
+            );
         }
+        // The receive interrupt only wakes `get`'s WFI: interrupts stay masked, so no handler
+        // runs.
+        cortex_m::interrupt::disable();
+        // SAFETY: with interrupts masked, unmasking the line cannot start a handler.
+        unsafe { cortex_m::peripheral::NVIC::unmask(Uart0Rx) };
         u
     }
 
@@ -48,7 +70,17 @@ impl Uart {
 
     /// The next received byte, waiting for one.
     fn get(&mut self) -> u8 {
-        while self.state() & RX_FULL == 0 {}
+        while self.state() & RX_FULL == 0 {
+            // Clear the interrupt so WFI sleeps until the next byte (one that came since the
+            // check above leaves it pending, and WFI returns at once).
+            // SAFETY: as `state`.
+            unsafe { write_volatile((self.base + INTSTATUS) as *mut u32, RX_INTERRUPT) };
+            cortex_m::peripheral::NVIC::unpend(Uart0Rx);
+            if self.state() & RX_FULL != 0 {
+                break;
+            }
+            cortex_m::asm::wfi();
+        }
         // SAFETY: as `state`.
         unsafe { read_volatile((self.base + DATA) as *const u32) as u8 }
     }

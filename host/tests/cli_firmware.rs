@@ -1,24 +1,39 @@
 //! A microcontroller in the cluster: the firmware (`firmware/`, the unchanged core worker loop
 //! on a Cortex-M4F's UART) runs under QEMU's `mps2-an386` board, and `strahl render --serial`
-//! renders the demo room with it alone and beside an in-process worker, byte-identical to a
-//! local render; a scene too large for the board is refused at the handshake and rendered by
-//! the others; a board reset mid-render (QEMU killed) costs nothing.
+//! renders with it alone and beside in-process and TCP workers, byte-identical to a local
+//! render. A scene too large for the board is refused at the handshake and rendered by the
+//! others; a board reset mid-render (QEMU killed) costs nothing; a board built with a shared
+//! secret serves only masters that hold it; boards booted alike give different nonces.
 //!
-//! The test builds the firmware itself (`cargo build --manifest-path firmware/Cargo.toml`) and
-//! starts every QEMU it uses, killed when the test ends, even when it fails. It is skipped, with
-//! the reason printed, only where `qemu-system-arm` or the target is missing;
-//! `STRAHL_REQUIRE_QEMU=1` (set by `.ci/run`, whose setup installs both) makes that a failure.
+//! The tests build the firmware themselves (`cargo build --manifest-path firmware/Cargo.toml`,
+//! with and without a secret) and start every QEMU they use, killed when a test ends, even when
+//! it fails. They are skipped, with the reason printed, only where `qemu-system-arm` is
+//! missing; `STRAHL_REQUIRE_QEMU=1` (set by `.ci/run`, whose setup installs it) makes that a
+//! failure.
 
 mod support;
 
+use embedded_io_adapters::std::FromStd;
 use std::error::Error;
 use std::io::{BufRead as _, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::time::Duration;
-use support::{finish, room_config, table, Proc, TestResult};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+use strahl_core::wire::auth::Nonce;
+use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::message::{Hello, MasterMessage, WorkerMessage};
+use strahl_core::wire::{MAX_FRAME_LEN, PROTOCOL_VERSION};
+use support::{finish, room_config, table, Proc, Rendered, TestResult};
 
 const QEMU: &str = "/usr/bin/qemu-system-arm";
+
+/// The board's name in its `Hello`.
+const BOARD: &str = "mps2-an386";
+
+/// A small scene (a few solids): its transfer to the board takes milliseconds, not the room's
+/// seconds.
+const MIRRORS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenes/fart/mirrors.fart");
 
 /// An emulated board; QEMU is killed when it is dropped.
 struct Board {
@@ -30,22 +45,14 @@ struct Board {
 impl Board {
     fn start(elf: &Path) -> Result<Board, Box<dyn Error>> {
         let mut qemu = Command::new(QEMU)
+            .args(["-machine", BOARD, "-cpu", "cortex-m4", "-nographic"])
             .args([
-                "-machine",
-                "mps2-an386",
-                "-cpu",
-                "cortex-m4",
-                "-nographic",
                 "-monitor",
                 "none",
-            ])
-            .args([
                 "-semihosting-config",
                 "enable=on,target=native",
-                "-serial",
-                "pty",
-                "-kernel",
             ])
+            .args(["-serial", "pty", "-kernel"])
             .arg(elf)
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -57,9 +64,15 @@ impl Board {
         let pty = line
             .split_whitespace()
             .find(|w| w.starts_with("/dev/pts/"))
-            .ok_or_else(|| format!("QEMU named no pseudo-terminal: {line:?}"))?
-            .to_string();
-        Ok(Board { qemu, pty })
+            .map(str::to_string);
+        let board = Board {
+            qemu,
+            pty: pty.unwrap_or_default(),
+        };
+        if board.pty.is_empty() {
+            return Err(format!("QEMU named no pseudo-terminal: {line:?}").into());
+        }
+        Ok(board)
     }
 
     fn kill(&mut self) {
@@ -74,222 +87,344 @@ impl Drop for Board {
     }
 }
 
-/// Why the firmware cannot run here, if it cannot.
-fn missing() -> Option<String> {
-    if !Path::new(QEMU).exists() {
-        return Some(format!(
-            "{QEMU} is not installed (Debian: apt-get install qemu-system-arm; .ci/setup does this)"
-        ));
+/// Whether QEMU can run here: `Ok(false)` (the reason printed) skips a test, unless
+/// `STRAHL_REQUIRE_QEMU=1` makes it a failure.
+fn qemu_here() -> Result<bool, Box<dyn Error>> {
+    if Path::new(QEMU).exists() {
+        return Ok(true);
     }
-    None
+    let why = format!(
+        "{QEMU} is not installed (Debian: apt-get install qemu-system-arm; .ci/setup does)"
+    );
+    if std::env::var_os("STRAHL_REQUIRE_QEMU").is_some_and(|v| v == "1") {
+        return Err(format!("STRAHL_REQUIRE_QEMU=1 but {why}").into());
+    }
+    eprintln!("SKIPPED: {why}");
+    Ok(false)
 }
 
-/// Builds the firmware (release, with semihosting for panic messages); its ELF.
-fn firmware() -> Result<PathBuf, Box<dyn Error>> {
+/// The firmware built without and with a shared secret, and the secret's file.
+struct Firmware {
+    plain: PathBuf,
+    with_secret: PathBuf,
+    secret_file: PathBuf,
+    _dir: tempfile::TempDir,
+}
+
+/// Builds both firmwares once per test run (release, with semihosting for panic messages).
+fn firmware() -> Result<&'static Firmware, Box<dyn Error>> {
+    static BUILT: OnceLock<Result<Firmware, String>> = OnceLock::new();
+    let built = BUILT.get_or_init(|| {
+        let dir = tempfile::tempdir().map_err(|e| e.to_string())?;
+        let secret_file = dir.path().join("secret");
+        std::fs::write(&secret_file, "a board's secret, 32 bytes long.\n")
+            .map_err(|e| e.to_string())?;
+        // The build without a secret comes last, so the checkout is left with that one.
+        let with_secret = build(Some(&secret_file), &dir.path().join("with-secret.elf"))?;
+        let plain = build(None, &dir.path().join("plain.elf"))?;
+        Ok(Firmware {
+            plain,
+            with_secret,
+            secret_file,
+            _dir: dir,
+        })
+    });
+    built.as_ref().map_err(|e| e.clone().into())
+}
+
+/// Builds the firmware with `secret` (`STRAHL_FIRMWARE_SECRET_FILE`) and copies it to `to`.
+fn build(secret: Option<&Path>, to: &Path) -> Result<PathBuf, String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
-    let out = Command::new(cargo)
-        .args([
-            "build",
-            "--release",
-            "--target",
-            "thumbv7em-none-eabihf",
-            "--features",
-            "semihosting",
-        ])
-        .arg("--manifest-path")
+    let mut command = Command::new(cargo);
+    command
+        .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
+        .args(["--features", "semihosting", "--manifest-path"])
         .arg(dir.join("Cargo.toml"))
-        .output()?;
-    if !out.status.success() {
-        return Err(format!(
-            "the firmware does not build:\n{}",
-            String::from_utf8_lossy(&out.stderr)
-        )
-        .into());
+        .env_remove("STRAHL_FIRMWARE_SECRET_FILE");
+    if let Some(file) = secret {
+        command.env("STRAHL_FIRMWARE_SECRET_FILE", file);
     }
-    Ok(dir.join("target/thumbv7em-none-eabihf/release/strahl-firmware"))
+    let out = command.output().map_err(|e| e.to_string())?;
+    if !out.status.success() {
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        return Err(format!("the firmware does not build:\n{stderr}"));
+    }
+    let elf = dir.join("target/thumbv7em-none-eabihf/release/strahl-firmware");
+    std::fs::copy(elf, to).map_err(|e| e.to_string())?;
+    Ok(to.to_path_buf())
 }
 
-/// `strahl render ROOM -o OUT -w W -h H EXTRA...`.
-fn room(out: &Path, size: (u32, u32), extra: &[&str]) -> Result<support::Rendered, Box<dyn Error>> {
-    let scene = room_config().display().to_string();
+/// `strahl render SCENE -o OUT --worker-timeout 60 EXTRA...` to its end.
+fn render(scene: &str, out: &Path, extra: &[&str]) -> Result<Rendered, Box<dyn Error>> {
     let o = out.display().to_string();
-    let (w, h) = (size.0.to_string(), size.1.to_string());
-    let mut args = vec![
-        "render",
-        &scene,
-        "-o",
-        &o,
-        "-w",
-        &w,
-        "-h",
-        &h,
-        "--worker-timeout",
-        "60",
-    ];
-    args.extend_from_slice(extra);
+    let args = [
+        &["render", scene, "-o", &o, "--worker-timeout", "60"][..],
+        extra,
+    ]
+    .concat();
     finish(Proc::spawn(&args)?)
 }
 
+/// The image one in-process worker renders of `scene` with `extra` options.
+fn reference(scene: &str, dir: &Path, extra: &[&str]) -> Result<Vec<u8>, Box<dyn Error>> {
+    let out = dir.join("reference.bmp");
+    render(
+        scene,
+        &out,
+        &[&["--workers", "1", "-q"][..], extra].concat(),
+    )?
+    .assert_success();
+    Ok(std::fs::read(out)?)
+}
+
+/// The room (its scene, the room's 90 kB, sent to the board).
+fn room() -> String {
+    room_config().display().to_string()
+}
+
 #[test]
-fn the_emulated_board_renders_alone_mixed_refuses_too_much_and_its_loss_costs_nothing() -> TestResult
-{
-    if let Some(why) = missing() {
-        if std::env::var_os("STRAHL_REQUIRE_QEMU").is_some_and(|v| v == "1") {
-            return Err(format!("STRAHL_REQUIRE_QEMU=1 but {why}").into());
-        }
-        eprintln!("SKIPPED: {why}");
+fn the_board_renders_alone_and_refuses_a_scene_too_large() -> TestResult {
+    if !qemu_here()? {
         return Ok(());
     }
-    let elf = firmware()?;
+    let board = Board::start(&firmware()?.plain)?;
     let dir = tempfile::tempdir()?;
-    // The image one in-process worker renders of the room at `size` with `extra` options.
-    let reference = |size: (u32, u32), extra: &[&str]| -> Result<Vec<u8>, Box<dyn Error>> {
-        let out = dir.path().join("reference.bmp");
-        room(&out, size, &[&["--workers", "1", "-q"][..], extra].concat())?.assert_success();
-        Ok(std::fs::read(out)?)
-    };
+    let size = ["-w", "64", "-h", "48"];
 
     // Alone: the board renders every line of the room.
-    let board = Board::start(&elf)?;
     let alone = dir.path().join("alone.bmp");
-    let r = room(
+    let r = render(
+        &room(),
         &alone,
-        (64, 48),
-        &["--workers", "0", "--serial", &board.pty],
+        &[&size[..], &["--workers", "0", "--serial", &board.pty]].concat(),
     )?;
     r.assert_success();
     assert!(
-        std::fs::read(&alone)? == reference((64, 48), &[])?,
+        std::fs::read(&alone)? == reference(&room(), dir.path(), &size)?,
         "the board's image differs:\n{}",
         r.stderr
     );
     let rows = table(&r.stderr);
     assert_eq!(
         (rows.len(), rows[0].name.as_str(), rows[0].lines),
-        (1, "mps2-an386", 48),
+        (1, BOARD, 48),
         "{}",
         r.stderr
     );
-
-    // Mixed with an in-process worker, the board keeping the scene it has.
-    let mixed = dir.path().join("mixed.bmp");
-    let r = room(
-        &mixed,
-        (64, 48),
-        &["-m", "3", "--workers", "1", "--serial", &board.pty],
-    )?;
-    r.assert_success();
-    assert!(
-        std::fs::read(&mixed)? == reference((64, 48), &["-m", "3"])?,
-        "mixed image differs:\n{}",
-        r.stderr
-    );
-    let rows = table(&r.stderr);
-    assert!(rows.iter().all(|w| w.status == "ok"), "{}", r.stderr);
 
     // A scene larger than the board's heap is refused when the master offers it, with the
     // reason; alone, the render fails saying so; beside another worker, the others render it.
     let large_dir = dir.path().join("large");
     std::fs::create_dir(&large_dir)?;
     let d = large_dir.display().to_string();
-    finish(Proc::spawn(&[
-        "generate",
-        "large",
-        "--triangles",
-        "300000",
-        "-o",
-        &d,
-    ])?)?
-    .assert_success();
+    let generate = ["generate", "large", "--triangles", "300000", "-o", &d];
+    finish(Proc::spawn(&generate)?)?.assert_success();
     let cfg = large_dir.join("raytracer.cfg").display().to_string();
-    let big = dir.path().join("big.bmp").display().to_string();
-    let small = ["-w", "32", "-h", "24", "--worker-timeout", "30"];
-    let alone = [
-        &[
-            "render",
-            &cfg,
-            "-o",
-            &big,
-            "--workers",
-            "0",
-            "--serial",
-            &board.pty,
-        ][..],
-        &small,
-    ]
-    .concat();
-    let r = finish(Proc::spawn(&alone)?)?;
+    let big = dir.path().join("big.bmp");
+    let small = ["-w", "32", "-h", "24"];
+    let r = render(
+        &cfg,
+        &big,
+        &[&small[..], &["--workers", "0", "--serial", &board.pty]].concat(),
+    )?;
     assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
     assert!(
-        r.stderr.contains("mps2-an386")
+        r.stderr.contains(BOARD)
             && r.stderr
                 .contains("it refused the job: the scene needs more than"),
         "{}",
         r.stderr
     );
-    assert!(!Path::new(&big).exists());
-    let _ = std::fs::remove_file(format!("{big}.checkpoint"));
-    let mixed = [
-        &[
-            "render",
-            &cfg,
-            "-o",
-            &big,
-            "--workers",
-            "1",
-            "--serial",
-            &board.pty,
-            "-q",
-        ][..],
-        &small,
-    ]
-    .concat();
-    finish(Proc::spawn(&mixed)?)?.assert_success();
-    let local = dir.path().join("big-local.bmp").display().to_string();
-    let only_local = [
-        &["render", &cfg, "-o", &local, "--workers", "1", "-q"][..],
-        &small,
-    ]
-    .concat();
-    finish(Proc::spawn(&only_local)?)?.assert_success();
+    assert!(!big.exists());
+    let _ = std::fs::remove_file(dir.path().join("big.bmp.checkpoint"));
+    let mixed = ["--workers", "1", "--serial", &board.pty, "-q"];
+    render(&cfg, &big, &[&small[..], &mixed].concat())?.assert_success();
     assert!(
-        std::fs::read(&big)? == std::fs::read(&local)?,
+        std::fs::read(&big)? == reference(&cfg, dir.path(), &small)?,
         "the others' image differs"
     );
-    drop(board);
+    Ok(())
+}
 
-    // A board reset mid-render: the image is the same.
-    let mut board = Board::start(&elf)?;
-    let scene = room_config().display().to_string();
-    let lost = dir.path().join("lost.bmp");
-    let l = lost.display().to_string();
-    let render = Proc::spawn(&[
-        "render",
-        &scene,
-        "-o",
-        &l,
-        "-w",
-        "160",
-        "-h",
-        "120",
-        "-m",
-        "4",
+#[test]
+fn the_board_earns_lines_beside_local_and_tcp_workers() -> TestResult {
+    if !qemu_here()? {
+        return Ok(());
+    }
+    let board = Board::start(&firmware()?.plain)?;
+    let (_tcp, address) = Proc::listening_worker_with("tcp-peer", &["--threads", "1"])?;
+    let dir = tempfile::tempdir()?;
+    // Narrow lines, many of them: the board (about 2 % of a PC core) needs the render to
+    // outlast its first second (QEMU looks at an unopened pseudo-terminal once a second).
+    let settings = ["-w", "160", "-h", "960", "-m", "4"];
+    let expected = reference(MIRRORS, dir.path(), &settings)?;
+    let workers = [
         "--workers",
         "1",
+        "--worker",
+        &address,
         "--serial",
         &board.pty,
-        "--worker-timeout",
-        "60",
-    ])?;
+    ];
+    // Every render must be right; one of a few must show all three workers rendering.
+    let mut last = String::new();
+    for attempt in 1..=3 {
+        let out = dir.path().join(format!("mixed{attempt}.bmp"));
+        let r = render(MIRRORS, &out, &[&settings[..], &workers].concat())?;
+        r.assert_success();
+        assert!(
+            std::fs::read(&out)? == expected,
+            "mixed image differs:\n{}",
+            r.stderr
+        );
+        let rows = table(&r.stderr);
+        let lines = |name: &str| rows.iter().find(|w| w.name == name).map_or(0, |w| w.lines);
+        if [BOARD, "tcp-peer", "local-1"].iter().all(|n| lines(n) > 0) {
+            return Ok(());
+        }
+        last = r.stderr;
+    }
+    Err(format!("in no render did all three workers render lines; the last:\n{last}").into())
+}
+
+#[test]
+fn a_board_reset_mid_render_costs_nothing() -> TestResult {
+    if !qemu_here()? {
+        return Ok(());
+    }
+    let mut board = Board::start(&firmware()?.plain)?;
+    let dir = tempfile::tempdir()?;
+    let settings = ["-w", "160", "-h", "120", "-m", "4"];
+    let lost = dir.path().join("lost.bmp");
+    let l = lost.display().to_string();
+    let scene = room();
+    let args = [
+        &["render", &scene, "-o", &l, "--worker-timeout", "60"][..],
+        &settings,
+        &["--workers", "1", "--serial", &board.pty],
+    ]
+    .concat();
+    let render = Proc::spawn(&args)?;
     std::thread::sleep(Duration::from_millis(1500));
     board.kill();
     let r = finish(render)?;
     r.assert_success();
     assert!(
-        std::fs::read(&lost)? == reference((160, 120), &["-m", "4"])?,
+        std::fs::read(&lost)? == reference(&room(), dir.path(), &settings)?,
         "image after the reset differs:\n{}",
         r.stderr
     );
+    Ok(())
+}
+
+#[test]
+fn a_board_built_with_a_secret_serves_only_masters_that_hold_it() -> TestResult {
+    if !qemu_here()? {
+        return Ok(());
+    }
+    let fw = firmware()?;
+    let board = Board::start(&fw.with_secret)?;
+    let dir = tempfile::tempdir()?;
+    let settings = ["-w", "32", "-h", "24"];
+    let out = dir.path().join("out.bmp");
+    let alone = ["--workers", "0", "--serial", &board.pty];
+
+    let r = render(MIRRORS, &out, &[&settings[..], &alone].concat())?;
+    assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("it requires a shared secret: give this master the same --secret-file"),
+        "{}",
+        r.stderr
+    );
+    let wrong = dir.path().join("wrong");
+    std::fs::write(&wrong, "another secret, also long enough")?;
+    let w = wrong.display().to_string();
+    let r = render(
+        MIRRORS,
+        &out,
+        &[&settings[..], &alone, &["--secret-file", &w]].concat(),
+    )?;
+    assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr
+            .contains("its proof of the shared secret is wrong (another secret)"),
+        "{}",
+        r.stderr
+    );
+    assert!(!out.exists());
+    let _ = std::fs::remove_file(dir.path().join("out.bmp.checkpoint"));
+
+    let s = fw.secret_file.display().to_string();
+    let r = render(
+        MIRRORS,
+        &out,
+        &[&settings[..], &alone, &["--secret-file", &s]].concat(),
+    )?;
+    r.assert_success();
+    assert!(
+        std::fs::read(&out)? == reference(MIRRORS, dir.path(), &settings)?,
+        "the image differs:\n{}",
+        r.stderr
+    );
+    Ok(())
+}
+
+/// Sends a master's `Hello` with a fixed nonce to the board on `pty`; the nonce it answers.
+fn worker_nonce(pty: &str) -> Result<Nonce, Box<dyn Error>> {
+    let mut link = FromStd::new(strahl_serial::open(pty, 115_200)?);
+    let hello = MasterMessage::Hello(Hello {
+        version: PROTOCOL_VERSION,
+        name: "test",
+        arch: "test",
+        scene_memory: 0,
+        threads: 0,
+        nonce: [7; 32],
+        proof: None,
+    });
+    let mut frames = FrameWriter::new();
+    let bytes = [
+        &[0u8][..],
+        frames.encode(&hello).map_err(|e| format!("{e:?}"))?,
+    ]
+    .concat();
+    std::io::Write::write_all(link.inner_mut(), &bytes)?;
+    let mut buf = vec![0u8; MAX_FRAME_LEN];
+    let mut reader = FrameReader::new(&mut buf[..]);
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while Instant::now() < deadline {
+        match reader.next(&mut link) {
+            Ok(ReadEvent::Frame(payload)) => {
+                if let Ok(WorkerMessage::Hello(h)) = WorkerMessage::decode(payload) {
+                    return Ok(h.nonce);
+                }
+            }
+            Ok(ReadEvent::Dropped(_)) | Err(LinkError::TimedOut) => {}
+            Err(e) => return Err(format!("{pty}: {e:?}").into()),
+        }
+    }
+    Err(format!("{pty}: no Hello from the board within 20 s").into())
+}
+
+#[test]
+fn boards_booted_alike_give_different_nonces() -> TestResult {
+    if !qemu_here()? {
+        return Ok(());
+    }
+    // Two boards from the same image, greeted alike: a nonce that repeats across resets would
+    // let a recorded session be replayed to the board.
+    let elf = &firmware()?.plain;
+    let mut nonces = Vec::new();
+    for _ in 0..2 {
+        let board = Board::start(elf)?;
+        nonces.push(worker_nonce(&board.pty)?);
+        nonces.push(worker_nonce(&board.pty)?);
+    }
+    for (i, a) in nonces.iter().enumerate() {
+        for b in &nonces[i + 1..] {
+            assert_ne!(a, b, "two handshakes got the same nonce: {nonces:02x?}");
+        }
+    }
     Ok(())
 }
