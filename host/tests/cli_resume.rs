@@ -2,6 +2,7 @@
 //! finished in `OUTPUT.checkpoint`, `--resume` renders only the others, and the image is byte
 //! for byte the one an uninterrupted render gives. A checkpoint of other settings is refused,
 //! a fresh render does not overwrite a checkpoint, and no temporary file is left behind.
+//! SIGTERM stops a render as Ctrl-C does; a signal while the image is written lets it finish.
 
 mod support;
 
@@ -116,6 +117,89 @@ fn ctrl_c_keeps_the_checkpoint_and_prints_the_command_that_resumes() -> TestResu
         r.stderr
     );
     Ok(())
+}
+
+/// Sends `signal` to process `pid` with `kill`.
+fn signal(signal: &str, pid: u32) -> TestResult {
+    let status = Command::new("kill")
+        .args([&format!("-{signal}"), &pid.to_string()])
+        .status()?;
+    assert!(status.success(), "kill -{signal} {pid}");
+    Ok(())
+}
+
+#[test]
+fn sigterm_stops_a_render_as_ctrl_c_does() -> TestResult {
+    // `kill` and Slurm's `scancel` send SIGTERM: the render stops as Ctrl-C stops it.
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let mut p = start_and_wait_for_results(&out)?;
+    signal("TERM", p.pid())?;
+    let status = p.wait(Duration::from_secs(30))?;
+    let err = p.stderr();
+    assert_eq!(status.code(), Some(1), "{err}");
+    assert!(err.contains("interrupted"), "{err}");
+    assert!(err.contains("--resume"), "the command that resumes:\n{err}");
+    assert_eq!(files(dir.path())?, ["out.bmp.checkpoint"], "{err}");
+    Ok(())
+}
+
+#[test]
+fn a_signal_while_the_image_is_written_lets_the_write_finish() -> TestResult {
+    // One sphere at 4000×4000: a 48 MB BMP, written in about a tenth of a second, long enough
+    // to see its temporary file grow and signal the render then.
+    let dir = tempfile::tempdir()?;
+    let scene = dir.path().join("one.nff");
+    std::fs::write(
+        &scene,
+        "v\nfrom 0 0 -10\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 64 64\n\
+         b 0.2 0.3 0.5\nl 5 5 -5\nf 1 0 0 0.8 0.2 10 0 1\ns 0 0 0 2\n",
+    )?;
+    let s = scene.display().to_string();
+    let args = |out: &Path| {
+        let o = out.display().to_string();
+        ["render", &s, "-o", &o, "-w", "4000", "-h", "4000", "-q"].map(String::from)
+    };
+    let reference = dir.path().join("reference.bmp");
+    finish(Proc::spawn(&args(&reference))?)?.assert_success();
+    let expected = std::fs::read(&reference)?;
+    std::fs::remove_file(&reference)?;
+    for name in ["INT", "TERM", "HUP"] {
+        let out = dir.path().join("out.bmp");
+        let _ = std::fs::remove_file(&out);
+        let mut p = Proc::spawn(&args(&out))?;
+        wait_for_the_write(&mut p, dir.path())?;
+        signal(name, p.pid())?;
+        let r = finish(p)?;
+        r.assert_success();
+        assert!(
+            std::fs::read(&out)? == expected,
+            "SIG{name}: the image differs"
+        );
+        assert_eq!(files(dir.path())?, ["one.nff", "out.bmp"], "SIG{name}");
+    }
+    Ok(())
+}
+
+/// Waits until a temporary file of the image in `dir` holds bytes (the render is writing it).
+fn wait_for_the_write(p: &mut Proc, dir: &Path) -> TestResult {
+    let start = Instant::now();
+    while start.elapsed() < RENDER_TIMEOUT {
+        for entry in std::fs::read_dir(dir)? {
+            let entry = entry?;
+            let name = entry.file_name().to_string_lossy().into_owned();
+            // A vanished file is fine: the write was done before it was looked at.
+            let len = entry.metadata().map_or(0, |m| m.len());
+            if name.starts_with(".strahl-") && name.ends_with(".tmp") && len > 0 {
+                return Ok(());
+            }
+        }
+        if !p.is_running() {
+            return Err(format!("the write was not seen before the end:\n{}", p.stderr()).into());
+        }
+        thread::sleep(Duration::from_millis(1));
+    }
+    Err("no write within the render time-out".into())
 }
 
 #[test]

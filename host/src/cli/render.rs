@@ -859,8 +859,9 @@ fn record_result(
     }
 }
 
-/// The flag Ctrl-C sets, with its handler installed on first use (without a handler, Ctrl-C
-/// ends the process at once, and the checkpoint is kept all the same).
+/// The flag Ctrl-C, SIGTERM and SIGHUP set (`ctrlc`'s `termination` feature), with its
+/// handler installed on first use. Without a handler they end the process at once: the
+/// checkpoint is kept all the same, but an image being written leaves its temporary file.
 fn stop_on_ctrl_c() -> &'static AtomicBool {
     static STOP: AtomicBool = AtomicBool::new(false);
     static INSTALLED: std::sync::Once = std::sync::Once::new();
