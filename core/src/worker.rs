@@ -157,6 +157,11 @@ pub trait Outbox<L> {
     /// # Errors
     /// The link's or the encoder's error; the session ends with it.
     fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError>;
+
+    /// The session's handshake is over: the master greeted, and proved the secret when the
+    /// worker has one. Called once per session (again after a new `Hello`). A transport that
+    /// gives a handshake less time than a session between frames lifts that limit here.
+    fn established(&mut self) {}
 }
 
 /// One line's buffers, sized from the scene on first use.
@@ -259,20 +264,28 @@ enum Stage {
 }
 
 /// Where a session stands with the shared secret.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Trust {
     /// The worker has no secret: any master may use it.
     Open,
-    /// The worker has a secret; the master's `Auth` for these nonces is awaited.
-    Awaiting { master: Nonce, worker: Nonce },
+    /// The worker has a secret; the master's `Auth` for the greeting's nonces is awaited.
+    Awaiting,
     /// The master proved it holds the secret.
     Proven,
+}
+
+/// The two nonces of a session's handshake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Greeting {
+    master: Nonce,
+    worker: Nonce,
 }
 
 /// One session's state; its answers go through an [`Outbox`].
 struct Session<'n> {
     node: &'n NodeInfo<'n>,
-    greeted: bool,
+    /// The nonces of the master's `Hello` and of the answer; `None` before a `Hello`.
+    greeting: Option<Greeting>,
     trust: Trust,
     job: Option<Job>,
     dropped: u32,
@@ -282,7 +295,8 @@ struct Session<'n> {
 /// request at once ([`Inline`]).
 ///
 /// Read time-outs (a serial port with nothing to say) are waited through. A `Hello` in the
-/// middle of a session starts it afresh, keeping the cache.
+/// middle of a session starts it afresh, keeping the cache; the same `Hello` again is answered
+/// as before and changes nothing.
 ///
 /// # Errors
 /// [`WorkerError::VersionMismatch`] if the master speaks another version,
@@ -311,7 +325,7 @@ pub fn serve_with<L: Read, O: Outbox<L>>(
     let mut reader = FrameReader::new(&mut rx[..]);
     let mut session = Session {
         node,
-        greeted: false,
+        greeting: None,
         trust: Trust::Open,
         job: None,
         dropped: 0,
@@ -336,7 +350,7 @@ pub fn serve_with<L: Read, O: Outbox<L>>(
             }
             Err(_) => {
                 session.dropped = session.dropped.saturating_add(1);
-                if session.greeted {
+                if session.greeting.is_some() {
                     let total = session.dropped;
                     io.send(&WorkerMessage::Dropped { total })?;
                 }
@@ -370,41 +384,14 @@ impl Session<'_> {
         io: &mut Io<'_, L, O>,
     ) -> Result<Option<SessionEnd>, WorkerError> {
         match msg {
-            MasterMessage::Hello(h) => {
-                let node = self.node;
-                let nonce = (node.nonce)();
-                io.send(&WorkerMessage::Hello(Hello {
-                    version: PROTOCOL_VERSION,
-                    name: node.name,
-                    arch: node.arch,
-                    scene_memory: node.scene_memory,
-                    threads: node.threads.max(1),
-                    nonce,
-                    proof: node
-                        .secret
-                        .map(|k| auth::prove(k, Role::Worker, &h.nonce, &nonce)),
-                }))?;
-                if h.version != PROTOCOL_VERSION {
-                    return Err(WorkerError::VersionMismatch { master: h.version });
-                }
-                self.greeted = true;
-                self.trust = match node.secret {
-                    Some(_) => Trust::Awaiting {
-                        master: h.nonce,
-                        worker: nonce,
-                    },
-                    None => Trust::Open,
-                };
-                self.job = None;
-                self.dropped = 0;
-            }
+            MasterMessage::Hello(h) => self.greet(&h, io)?,
             // Nothing but a Hello opens a session.
-            _ if !self.greeted => {}
+            _ if self.greeting.is_none() => {}
             MasterMessage::Reject { reason } => return Err(WorkerError::Rejected(reason)),
             MasterMessage::EndSession => return Ok(Some(SessionEnd::Ended)),
             MasterMessage::Auth { proof } => self.check_auth(&proof, io)?,
             // A worker with a secret serves only a master that proved it.
-            msg if matches!(self.trust, Trust::Awaiting { .. }) => {
+            msg if self.trust == Trust::Awaiting => {
                 io.send(&WorkerMessage::Refused {
                     job: request_job(&msg),
                     reason: Refusal::Unauthenticated,
@@ -439,6 +426,51 @@ impl Session<'_> {
         Ok(None)
     }
 
+    /// Answers a master's `Hello`. The same `Hello` again (a master that heard no answer, or
+    /// waited while another session ran, probes with it) gets the same answer and changes
+    /// nothing, so the master's `Auth` for the first answer still holds; another `Hello` starts
+    /// the session afresh.
+    fn greet<L, O: Outbox<L>>(
+        &mut self,
+        h: &Hello<'_>,
+        io: &mut Io<'_, L, O>,
+    ) -> Result<(), WorkerError> {
+        let node = self.node;
+        let repeat = self.greeting.filter(|g| g.master == h.nonce);
+        let worker = repeat.map_or_else(node.nonce, |g| g.worker);
+        io.send(&WorkerMessage::Hello(Hello {
+            version: PROTOCOL_VERSION,
+            name: node.name,
+            arch: node.arch,
+            scene_memory: node.scene_memory,
+            threads: node.threads.max(1),
+            nonce: worker,
+            proof: node
+                .secret
+                .map(|k| auth::prove(k, Role::Worker, &h.nonce, &worker)),
+        }))?;
+        if h.version != PROTOCOL_VERSION {
+            return Err(WorkerError::VersionMismatch { master: h.version });
+        }
+        if repeat.is_some() {
+            return Ok(());
+        }
+        self.greeting = Some(Greeting {
+            master: h.nonce,
+            worker,
+        });
+        self.trust = match node.secret {
+            Some(_) => Trust::Awaiting,
+            None => Trust::Open,
+        };
+        self.job = None;
+        self.dropped = 0;
+        if self.trust == Trust::Open {
+            io.out.established();
+        }
+        Ok(())
+    }
+
     /// Checks the master's `Auth`: the session goes on if it proves the secret, and ends with
     /// a refusal if it does not. Without a secret, or once proven, an `Auth` changes nothing.
     fn check_auth<L, O: Outbox<L>>(
@@ -446,12 +478,14 @@ impl Session<'_> {
         proof: &auth::Proof,
         io: &mut Io<'_, L, O>,
     ) -> Result<(), WorkerError> {
-        let (Trust::Awaiting { master, worker }, Some(secret)) = (self.trust, self.node.secret)
+        let (Trust::Awaiting, Some(secret), Some(g)) =
+            (self.trust, self.node.secret, self.greeting)
         else {
             return Ok(());
         };
-        if auth::verify(secret, Role::Master, &master, &worker, proof) {
+        if auth::verify(secret, Role::Master, &g.master, &g.worker, proof) {
             self.trust = Trust::Proven;
+            io.out.established();
             return Ok(());
         }
         io.send(&WorkerMessage::Refused {

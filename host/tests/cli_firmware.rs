@@ -371,8 +371,8 @@ fn a_board_built_with_a_secret_serves_only_masters_that_hold_it() -> TestResult 
     Ok(())
 }
 
-/// Sends a master's `Hello` with a fixed nonce to the board on `pty`; the nonce it answers.
-fn worker_nonce(pty: &str) -> Result<Nonce, Box<dyn Error>> {
+/// Sends a master's `Hello` with nonce `master` to the board on `pty`; the nonce it answers.
+fn worker_nonce(pty: &str, master: Nonce) -> Result<Nonce, Box<dyn Error>> {
     let mut link = FromStd::new(strahl_serial::open(pty, 115_200)?);
     let hello = MasterMessage::Hello(Hello {
         version: PROTOCOL_VERSION,
@@ -380,7 +380,7 @@ fn worker_nonce(pty: &str) -> Result<Nonce, Box<dyn Error>> {
         arch: "test",
         scene_memory: 0,
         threads: 0,
-        nonce: [7; 32],
+        nonce: master,
         proof: None,
     });
     let mut frames = FrameWriter::new();
@@ -412,14 +412,15 @@ fn boards_booted_alike_give_different_nonces() -> TestResult {
     if !qemu_here()? {
         return Ok(());
     }
-    // Two boards from the same image, greeted alike: a nonce that repeats across resets would
-    // let a recorded session be replayed to the board.
+    // Two boards from the same image, greeted alike, then by a second master: a nonce that
+    // repeats across resets would let a recorded session be replayed to the board. (The same
+    // Hello twice in a session is answered alike, by design: it is a master probing.)
     let elf = &firmware()?.plain;
     let mut nonces = Vec::new();
     for _ in 0..2 {
         let board = Board::start(elf)?;
-        nonces.push(worker_nonce(&board.pty)?);
-        nonces.push(worker_nonce(&board.pty)?);
+        nonces.push(worker_nonce(&board.pty, [7; 32])?);
+        nonces.push(worker_nonce(&board.pty, [8; 32])?);
     }
     for (i, a) in nonces.iter().enumerate() {
         for b in &nonces[i + 1..] {

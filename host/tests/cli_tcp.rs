@@ -510,31 +510,37 @@ fn cut_connection_loses_the_worker_and_the_image_is_complete() -> TestResult {
 fn hung_connection_times_out_and_the_image_is_complete() -> TestResult {
     let (_hung, hung) = Proc::listening_worker("hung")?;
     let (_steady, steady) = Proc::listening_worker("steady")?;
-    // A line result of 1280 pixels is about 7.7 KB: the hang comes in the third.
+    // A line result of 1280 pixels is about 7.7 KB: the hang comes in the third. Four samples
+    // per pixel: the render must outlast the time-out (at one sample, steady finished the image
+    // in less than the second after the hang, and hung was never waited on for that long).
     let proxy = Proxy::start(&hung, 20_000, Fault::Hang)?;
     let dir = tempfile::tempdir()?;
+    let expected = dir.path().join("expected.bmp");
+    render(LARGE, &expected, &["--workers", "1", "-m", "2", "-q"])?.assert_success();
     let out = dir.path().join("out.bmp");
     let start = Instant::now();
+    let workers = [
+        "--workers",
+        "0",
+        "--worker",
+        &proxy.address,
+        "--worker",
+        &steady,
+    ];
     let r = render(
         LARGE,
         &out,
-        &[
-            "--workers",
-            "0",
-            "--worker",
-            &proxy.address,
-            "--worker",
-            &steady,
-            "--worker-timeout",
-            "1",
-        ],
+        &[&workers[..], &["-m", "2", "--worker-timeout", "1"]].concat(),
     )?;
     r.assert_success();
     assert!(
         proxy.tripped.load(Ordering::SeqCst),
         "the connection never hung"
     );
-    assert_reference_image(&out, LARGE)?;
+    assert!(
+        std::fs::read(&out)? == std::fs::read(&expected)?,
+        "the image differs"
+    );
     let why = assert_lost(&r, "hung")?;
     assert!(why.starts_with("no answer for "), "{why}:\n{}", r.stderr);
     let rows = table(&r.stderr);
@@ -864,6 +870,62 @@ fn silent_connections_do_not_keep_a_worker_from_its_master() -> TestResult {
         t.contains("the peer closed before it said anything")
     });
     assert!(closed, "the silent connections are reported:\n{text}");
+    Ok(())
+}
+
+#[test]
+fn a_peer_that_greets_and_goes_silent_holds_a_worker_no_longer_than_the_handshake_time(
+) -> TestResult {
+    // A peer without the secret greets, hears the worker's Hello, and says nothing more. The
+    // worker serves one session at a time: before, the peer held it for the idle time-out
+    // (300 s) while the real master waited; now the handshake has HANDSHAKE_TIMEOUT (10 s).
+    let dir = tempfile::tempdir()?;
+    let key = dir.path().join("key");
+    std::fs::write(&key, "a secret of thirty-two bytes....")?;
+    let k = key.display().to_string();
+    let (w, a) = Proc::listening_worker_with("held", &["--secret-file", &k])?;
+    let mut peer = RawFrames::new(TcpStream::connect(&a)?)?;
+    peer.send(
+        &master_frame(&MasterMessage::Hello(hello(PROTOCOL_VERSION, "peer")))?,
+        None,
+    )?;
+    let greeting = peer.next()?.ok_or("the worker closed before its Hello")?;
+    assert!(matches!(
+        WorkerMessage::decode(&greeting),
+        Ok(WorkerMessage::Hello(_))
+    ));
+    let out = dir.path().join("out.bmp");
+    let master = ["--workers", "0", "--worker", &a, "--secret-file", &k];
+    let r = render(
+        SMALL,
+        &out,
+        &[&master[..], &["--worker-timeout", "40"]].concat(),
+    )?;
+    r.assert_success();
+    assert_reference_image(&out, SMALL)?;
+    assert_ok(&r, "held")?;
+    assert_eq!(peer.next()?, None, "the silent peer's connection is closed");
+    assert!(
+        w.stderr()
+            .contains("the master did not finish its handshake within 10 s"),
+        "{}",
+        w.stderr()
+    );
+    Ok(())
+}
+
+#[test]
+fn one_address_holds_at_most_half_of_a_workers_connections() -> TestResult {
+    // Connections that say nothing, all from 127.0.0.1: the fifth is refused at once (four
+    // places are left for other machines' masters).
+    let (w, a) = Proc::listening_worker("shared")?;
+    let _silent: Vec<TcpStream> = (0..5)
+        .map(|_| TcpStream::connect(&a))
+        .collect::<Result<_, _>>()?;
+    let (refused, text) = w.wait_stderr(Duration::from_secs(20), |t| {
+        t.contains("refused: 4 connections from 127.0.0.1 are open already")
+    });
+    assert!(refused, "the fifth connection is refused:\n{text}");
     Ok(())
 }
 

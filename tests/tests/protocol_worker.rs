@@ -9,6 +9,7 @@
 
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::sync::Arc;
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::adaptive::{mask_len, refine_line};
@@ -87,13 +88,18 @@ impl Script {
     }
 
     fn hello(&mut self) -> &mut Self {
+        self.hello_with(MASTER_NONCE)
+    }
+
+    /// A master's `Hello` with `nonce` (another master, or the same starting afresh).
+    fn hello_with(&mut self, nonce: [u8; 32]) -> &mut Self {
         self.send(MasterMessage::Hello(Hello {
             version: PROTOCOL_VERSION,
             name: "master",
             arch: "x86_64",
             scene_memory: 0,
             threads: 0,
-            nonce: MASTER_NONCE,
+            nonce,
             proof: None,
         }))
     }
@@ -329,7 +335,15 @@ fn run_pieces(
         input: &script.bytes,
         piece,
     };
-    let threaded = serve_threaded(reader, output.clone(), &|| {}, node, &mut threaded_cache, 3);
+    let threaded = serve_threaded(
+        reader,
+        output.clone(),
+        &|| {},
+        &|| {},
+        node,
+        &mut threaded_cache,
+        3,
+    );
     assert_eq!(
         threaded, result,
         "the threaded worker ends the session alike"
@@ -698,6 +712,66 @@ fn a_worker_with_a_secret_refuses_a_master_that_does_not_prove_it() {
     }
 }
 
+/// A worker with [`SECRET`] whose nonce differs at every handshake (1, 2, ... in every byte).
+fn guarded_counting_node() -> NodeInfo<'static> {
+    static CALLS: AtomicU8 = AtomicU8::new(0);
+    CALLS.store(0, Ordering::SeqCst);
+    NodeInfo {
+        nonce: || [CALLS.fetch_add(1, Ordering::SeqCst) + 1; 32],
+        ..guarded_node()
+    }
+}
+
+#[test]
+fn the_same_hello_again_gets_the_same_answer_and_changes_nothing() {
+    // A master probes a worker that has not answered (it was serving another session) with its
+    // Hello again; the worker reads them all at once. The master proves the secret over the
+    // first answer: a fresh nonce for each Hello made that proof fail, and a Hello after the
+    // proof reopened the handshake, so the job was refused.
+    let f = room();
+    let first: [u8; 32] = [1; 32];
+    let proof = auth::prove(SECRET, Role::Master, &MASTER_NONCE, &first);
+    let mut script = Script::default();
+    script
+        .hello()
+        .hello()
+        .send(MasterMessage::Auth { proof })
+        .hello()
+        .job(1, &f.blob)
+        .line(1, 2)
+        .send(MasterMessage::EndSession);
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    // One run (`run` would run the script twice, and the nonces count on).
+    let mut link = ScriptLink {
+        input: script.bytes.clone(),
+        pos: 0,
+        piece: 61,
+        output: Vec::new(),
+    };
+    let result = serve(&mut link, &guarded_counting_node(), &mut cache);
+    let out = decode_output(&link.output);
+    assert_eq!(result, Ok(SessionEnd::Ended));
+    let hello = Out::Hello {
+        version: PROTOCOL_VERSION,
+        name: NAME.to_owned(),
+        arch: ARCH.to_owned(),
+        scene_memory: MEMORY,
+        threads: 1,
+        nonce: first,
+        proof: Some(auth::prove(SECRET, Role::Worker, &MASTER_NONCE, &first)),
+    };
+    assert_eq!(
+        out,
+        vec![
+            hello.clone(),
+            hello.clone(),
+            hello,
+            Out::Ready { job: 1 },
+            expected_line(&f, 1, 2)
+        ]
+    );
+}
+
 #[test]
 fn a_rejected_worker_ends_the_session_with_the_reason() {
     let mut script = Script::default();
@@ -1049,7 +1123,7 @@ fn corrupt_frames_after_hello_are_reported() {
         })
         .send(MasterMessage::Fence { seq: 3 })
         // A new Hello starts counting afresh.
-        .hello()
+        .hello_with([0x44; 32])
         .raw(&corrupt_frame());
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
@@ -1235,7 +1309,7 @@ fn hello_mid_session_restarts_it_keeping_the_cache() {
         .hello()
         .job(1, &f.blob)
         .chunks_from(&f.blob, 0)
-        .hello()
+        .hello_with([0x44; 32])
         .line(1, 0)
         .job(1, &f.blob)
         .line(1, 0);

@@ -17,6 +17,8 @@ pub use listener::serve_listener;
 
 use std::io::{self, BufReader};
 use std::net::{Shutdown, TcpStream, ToSocketAddrs};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd, WorkerError};
 
@@ -139,7 +141,10 @@ pub fn connect(endpoint: &str, timeout: Duration) -> io::Result<TcpStream> {
 }
 
 /// Serves one master over a connected stream, rendering on `node.threads` threads
-/// ([`threads::serve_threaded`]).
+/// ([`threads::serve_threaded`]). The master has [`listener::HANDSHAKE_TIMEOUT`] from the
+/// session's start to finish the handshake (greet, and prove the secret when the worker has
+/// one), then [`listener::IDLE_TIMEOUT`] between frames: a peer that greets and goes silent
+/// holds a worker no longer than one that says nothing.
 ///
 /// # Errors
 /// The stream cannot be set up, or what the session reports.
@@ -148,11 +153,19 @@ pub fn serve_stream(
     node: &NodeInfo<'_>,
     cache: &mut SceneCache,
 ) -> Result<SessionEnd, SessionError> {
+    let established = Arc::new(AtomicBool::new(false));
+    let timed_out = Arc::new(Mutex::new(None));
     let setup = || -> io::Result<_> {
         stream.set_nodelay(true)?;
-        stream.set_read_timeout(Some(listener::IDLE_TIMEOUT))?;
+        let silence = Silence {
+            stream: stream.try_clone()?,
+            established: Arc::clone(&established),
+            timed_out: Arc::clone(&timed_out),
+            deadline: Instant::now() + listener::HANDSHAKE_TIMEOUT,
+            idle: false,
+        };
         Ok((
-            BufReader::with_capacity(1 << 16, Silence(stream.try_clone()?)),
+            BufReader::with_capacity(1 << 16, silence),
             stream.try_clone()?,
         ))
     };
@@ -161,23 +174,66 @@ pub fn serve_stream(
         // Already closed or never connected: nothing left to end.
         let _ = stream.shutdown(Shutdown::Both);
     };
-    threads::serve_threaded(reader, writer, &hang_up, node, cache, node.threads as usize)
-        .map_err(SessionError::Worker)
+    let greeted = || established.store(true, Ordering::SeqCst);
+    let threads = node.threads as usize;
+    let outcome = threads::serve_threaded(reader, writer, &hang_up, &greeted, node, cache, threads)
+        .map_err(SessionError::Worker);
+    let why = timed_out.lock().unwrap_or_else(|e| e.into_inner()).take();
+    match why {
+        Some(why) => Err(SessionError::TimedOut(why)),
+        None => outcome,
+    }
 }
 
-/// A stream whose read time-out ends the session: the worker loop waits through time-outs
-/// (a serial port says nothing for long), so a TCP master silent for
-/// [`listener::IDLE_TIMEOUT`] is reported as gone instead.
-struct Silence(TcpStream);
+/// A stream whose read time-outs end the session: the worker loop waits through time-outs (a
+/// serial port says nothing for long), so a TCP master that has not finished its handshake by
+/// `deadline`, or is silent for [`listener::IDLE_TIMEOUT`] after it, is reported as gone.
+struct Silence {
+    stream: TcpStream,
+    /// Set when the handshake is over.
+    established: Arc<AtomicBool>,
+    /// Why the session was cut off, once it was.
+    timed_out: Arc<Mutex<Option<String>>>,
+    /// When the handshake must be over.
+    deadline: Instant,
+    /// The read time-out is the idle one already.
+    idle: bool,
+}
 
 impl io::Read for Silence {
     fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        self.0.read(buf).map_err(|e| match e.kind() {
-            io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut => io::Error::new(
-                io::ErrorKind::ConnectionAborted,
-                "the master sent nothing for the idle time-out",
-            ),
-            _ => e,
+        let greeting = !self.established.load(Ordering::SeqCst);
+        let timeout = if greeting {
+            self.deadline.saturating_duration_since(Instant::now())
+        } else {
+            listener::IDLE_TIMEOUT
+        };
+        if greeting || !self.idle {
+            self.idle = !greeting;
+            // A zero time-out means none: past the deadline, one more millisecond.
+            self.stream
+                .set_read_timeout(Some(timeout.max(Duration::from_millis(1))))?;
+        }
+        self.stream.read(buf).map_err(|e| {
+            if !matches!(
+                e.kind(),
+                io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut
+            ) {
+                return e;
+            }
+            let why = if greeting {
+                format!(
+                    "the master did not finish its handshake within {} s",
+                    listener::HANDSHAKE_TIMEOUT.as_secs()
+                )
+            } else {
+                format!(
+                    "the master sent nothing for {} s",
+                    listener::IDLE_TIMEOUT.as_secs()
+                )
+            };
+            *self.timed_out.lock().unwrap_or_else(|e| e.into_inner()) = Some(why.clone());
+            io::Error::new(io::ErrorKind::ConnectionAborted, why)
         })
     }
 }
@@ -189,6 +245,8 @@ pub enum SessionError {
     Setup(io::Error),
     /// The session failed.
     Worker(WorkerError),
+    /// The master took too long (to finish its handshake, or between frames): why.
+    TimedOut(String),
 }
 
 /// Dials a listening master, retrying for up to `patience` while it is not up yet, and serves

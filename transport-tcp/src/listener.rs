@@ -2,22 +2,26 @@
 //! connects can hold the worker.
 //!
 //! The accepting thread hands each connection to a thread of its own, at most
-//! [`MAX_CONNECTIONS`] at once (more are closed at once, with a line in the report), and
-//! accepts at most one connection per [`ACCEPT_PACE`]. A
+//! [`MAX_CONNECTIONS`] at once and [`MAX_CONNECTIONS_PER_ADDRESS`] from one address ([`Places`];
+//! more are closed at once, with a line in the report), and accepts at most one connection per
+//! [`ACCEPT_PACE`]. A
 //! connection must send its first bytes within [`HANDSHAKE_TIMEOUT`] or it is closed; only then
 //! does it wait for the session, so silent connections never stand between the worker and its
-//! master. A session whose master sends nothing for [`IDLE_TIMEOUT`] ends. The scene cache is
-//! shared by the sessions, one after another.
+//! master. In the session, the master has [`HANDSHAKE_TIMEOUT`] again to finish the handshake
+//! ([`crate::serve_stream`]), then may be silent for [`IDLE_TIMEOUT`] before the session ends.
+//! The scene cache is shared by the sessions, one after another.
 
 use crate::{serve_stream, SessionError};
+use std::collections::HashMap;
 use std::io;
 use std::net::{IpAddr, Ipv4Addr, Ipv6Addr, Shutdown, SocketAddr, TcpListener, TcpStream};
-use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Mutex;
 use std::time::Duration;
 use strahl_core::worker::{NodeInfo, SceneCache, SessionEnd};
 
-/// How long a new connection may take to send its first bytes before it is closed.
+/// How long a new connection may take to send its first bytes before it is closed, and a
+/// session to finish its handshake before it ends.
 pub const HANDSHAKE_TIMEOUT: Duration = Duration::from_secs(10);
 
 /// How long a master may send nothing in a session before the worker ends it.
@@ -26,6 +30,10 @@ pub const IDLE_TIMEOUT: Duration = Duration::from_secs(300);
 /// Connections a listening worker holds at once (one in session, the others waiting for it or
 /// for their first bytes); more are closed at once.
 pub const MAX_CONNECTIONS: usize = 8;
+
+/// Connections one address may hold at once: half of [`MAX_CONNECTIONS`], so one machine
+/// cannot take every place and keep the others' masters out.
+pub const MAX_CONNECTIONS_PER_ADDRESS: usize = MAX_CONNECTIONS / 2;
 
 /// The shortest time between two accepted connections: at most 500 a second, so a peer that
 /// connects in a loop cannot keep the worker busy opening and closing threads.
@@ -51,7 +59,7 @@ pub fn serve_listener(
     let session = Mutex::new(cache);
     let report = Mutex::new(report);
     let served = AtomicU32::new(0);
-    let open = AtomicUsize::new(0);
+    let places = Places::default();
     let done = || sessions.is_some_and(|n| served.load(Ordering::SeqCst) >= n);
     std::thread::scope(|s| {
         while !done() {
@@ -70,18 +78,16 @@ pub fn serve_listener(
                 let mut r = report.lock().unwrap_or_else(|e| e.into_inner());
                 r(peer, outcome);
             };
-            if open.fetch_add(1, Ordering::SeqCst) >= MAX_CONNECTIONS {
-                open.fetch_sub(1, Ordering::SeqCst);
+            let ip = peer_ip(&stream);
+            if let Err(why) = places.take(ip) {
                 let _ = stream.shutdown(Shutdown::Both);
-                tell(Err(setup(format!(
-                    "refused: {MAX_CONNECTIONS} connections are open already"
-                ))));
+                tell(Err(setup(why)));
                 continue;
             }
-            let (session, served, open, wake) = (&session, &served, &open, &wake);
+            let (session, served, places, wake) = (&session, &served, &places, &wake);
             s.spawn(move || {
                 if done() {
-                    open.fetch_sub(1, Ordering::SeqCst);
+                    places.give_back(ip);
                     return;
                 }
                 let outcome = match first_bytes(&stream) {
@@ -97,12 +103,59 @@ pub fn serve_listener(
                     }
                     Err(e) => Err(e),
                 };
-                open.fetch_sub(1, Ordering::SeqCst);
+                places.give_back(ip);
                 tell(outcome);
             });
         }
         Ok(())
     })
+}
+
+/// The address a connection comes from (unspecified if the socket cannot say).
+fn peer_ip(stream: &TcpStream) -> IpAddr {
+    stream
+        .peer_addr()
+        .map_or(IpAddr::V4(Ipv4Addr::UNSPECIFIED), |a| a.ip())
+}
+
+/// The connections held: in all, and per address.
+#[derive(Default)]
+pub struct Places {
+    held: Mutex<HashMap<IpAddr, usize>>,
+}
+
+impl Places {
+    /// Takes a place for a connection from `ip`, or says why there is none.
+    ///
+    /// # Errors
+    /// A message when [`MAX_CONNECTIONS`] are held, or [`MAX_CONNECTIONS_PER_ADDRESS`] from `ip`.
+    pub fn take(&self, ip: IpAddr) -> Result<(), String> {
+        let mut held = self.held.lock().unwrap_or_else(|e| e.into_inner());
+        if held.values().sum::<usize>() >= MAX_CONNECTIONS {
+            return Err(format!(
+                "refused: {MAX_CONNECTIONS} connections are open already"
+            ));
+        }
+        let from_ip = held.entry(ip).or_insert(0);
+        if *from_ip >= MAX_CONNECTIONS_PER_ADDRESS {
+            return Err(format!(
+                "refused: {MAX_CONNECTIONS_PER_ADDRESS} connections from {ip} are open already"
+            ));
+        }
+        *from_ip += 1;
+        Ok(())
+    }
+
+    /// Gives back a place [`Places::take`] gave for `ip`.
+    pub fn give_back(&self, ip: IpAddr) {
+        let mut held = self.held.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(n) = held.get_mut(&ip) {
+            *n = n.saturating_sub(1);
+            if *n == 0 {
+                held.remove(&ip);
+            }
+        }
+    }
 }
 
 /// Where a connection to `listener` from this machine goes (its port on loopback when it
@@ -146,4 +199,30 @@ fn first_bytes(stream: &TcpStream) -> Result<(), SessionError> {
 
 fn setup(message: String) -> SessionError {
     SessionError::Setup(io::Error::other(message))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_address_takes_half_the_places_and_others_the_rest() {
+        let places = Places::default();
+        let a: IpAddr = "10.0.0.1".parse().expect("an address");
+        let b: IpAddr = "10.0.0.2".parse().expect("an address");
+        for _ in 0..MAX_CONNECTIONS_PER_ADDRESS {
+            assert_eq!(places.take(a), Ok(()));
+        }
+        let refused = places.take(a).expect_err("a's share is taken");
+        assert!(refused.contains("from 10.0.0.1"), "{refused}");
+        for _ in 0..MAX_CONNECTIONS - MAX_CONNECTIONS_PER_ADDRESS {
+            assert_eq!(places.take(b), Ok(()));
+        }
+        let c: IpAddr = "10.0.0.3".parse().expect("an address");
+        let full = places.take(c).expect_err("every place is taken");
+        assert!(full.contains("connections are open already"), "{full}");
+        places.give_back(a);
+        assert_eq!(places.take(c), Ok(()));
+        assert!(places.take(a).is_err(), "the place went to c");
+    }
 }

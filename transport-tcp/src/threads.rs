@@ -92,14 +92,16 @@ impl Shared {
 }
 
 /// The outbox of a threaded session: answers numbered in order, lines rendered by the pool.
-pub struct Pool {
+pub struct Pool<'a> {
     shared: Arc<Shared>,
     writer: FrameWriter,
     limit: usize,
     next_ticket: u64,
+    /// Told when the session's handshake is over.
+    established: &'a (dyn Fn() + Sync),
 }
 
-impl Pool {
+impl Pool<'_> {
     /// Waits for room in the queue, then gives the next ticket with its slot filled or pending.
     fn push(&mut self, frame: Option<Vec<u8>>, task: Option<Task>) -> Result<(), WorkerError> {
         let mut q = self.shared.lock();
@@ -127,7 +129,7 @@ impl Pool {
     }
 }
 
-impl<L> Outbox<L> for Pool {
+impl<L> Outbox<L> for Pool<'_> {
     fn send(&mut self, _: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
         let frame = self
             .writer
@@ -146,6 +148,10 @@ impl<L> Outbox<L> for Pool {
             mask: request.mask.map(<[u8]>::to_vec),
         };
         self.push(None, Some(task))
+    }
+
+    fn established(&mut self) {
+        (self.established)();
     }
 }
 
@@ -230,7 +236,8 @@ fn write_failed(shared: &Shared, e: &std::io::Error, hang_up: &(dyn Fn() + Sync)
 /// Serves one master like [`strahl_core::worker::serve`], rendering on `threads` threads (0
 /// counts as 1): requests are read from `reader`, answers written to `writer` in the order a
 /// one-thread worker would give them. `hang_up` ends the link (both directions) when a write
-/// fails, so a blocked read returns.
+/// fails, so a blocked read returns; `established` is called when the handshake is over
+/// ([`Outbox::established`]).
 ///
 /// # Errors
 /// As [`strahl_core::worker::serve`].
@@ -238,6 +245,7 @@ pub fn serve_threaded<R: Read, W: Write + Send>(
     reader: R,
     writer: W,
     hang_up: &(dyn Fn() + Sync),
+    established: &(dyn Fn() + Sync),
     node: &NodeInfo<'_>,
     cache: &mut SceneCache,
     threads: usize,
@@ -253,6 +261,7 @@ pub fn serve_threaded<R: Read, W: Write + Send>(
         writer: FrameWriter::new(),
         limit: QUEUE_PER_THREAD * threads,
         next_ticket: 0,
+        established,
     };
     std::thread::scope(|s| {
         for _ in 0..threads {

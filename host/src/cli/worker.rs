@@ -108,6 +108,7 @@ fn describe_tcp(outcome: &Result<SessionEnd, SessionError>) -> String {
         Ok(end) => describe(&Ok(*end)),
         Err(SessionError::Worker(e)) => describe(&Err(*e)),
         Err(SessionError::Setup(e)) => format!("cannot set up the connection: {e}"),
+        Err(SessionError::TimedOut(why)) => why.clone(),
     }
 }
 
