@@ -747,6 +747,37 @@ fn workers_dial_in_to_a_listening_master_and_exit_after_the_render() -> TestResu
 }
 
 #[test]
+fn connections_that_leave_give_their_place_back_to_workers_that_join() -> TestResult {
+    // More connections than MAX_JOINED (256) come and go before the worker dials in: before,
+    // every connection accepted counted for the rest of the render, and the worker was turned
+    // away.
+    let address = format!("127.0.0.1:{}", free_port()?);
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let master = Proc::spawn(&render_args(
+        SMALL,
+        &out,
+        &["--workers", "0", "--listen", &address],
+    ))?;
+    let (listening, text) = master.wait_stderr(Duration::from_secs(20), |t| {
+        t.contains("listening for workers on")
+    });
+    assert!(listening, "{text}");
+    for _ in 0..300 {
+        drop(TcpStream::connect(&address)?);
+        // The master accepts one connection per 2 ms; a full backlog would delay connecting.
+        thread::sleep(Duration::from_millis(3));
+    }
+    let mut worker = Proc::spawn(&["worker", "--connect", &address, "--name", "late"])?;
+    let r = finish(master)?;
+    r.assert_success();
+    assert_reference_image(&out, SMALL)?;
+    assert_ok(&r, "late")?;
+    worker.wait(Duration::from_secs(20))?;
+    Ok(())
+}
+
+#[test]
 fn launch_starts_a_worker_per_hosts_file_line() -> TestResult {
     let dir = tempfile::tempdir()?;
     let hosts = dir.path().join("hosts");

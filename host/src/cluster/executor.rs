@@ -18,7 +18,7 @@ use nix::unistd::Pid;
 use std::net::{SocketAddr, TcpListener};
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc::{self, Receiver};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -248,8 +248,9 @@ pub fn start_workers(
     Ok(w)
 }
 
-/// The most workers that may dial in to one render; later connections are closed at once (each
-/// joined worker costs the master two threads).
+/// The most workers dialled in to one render at once; more connections are closed at once
+/// (each joined worker costs the master two threads). A worker that is lost or leaves gives
+/// its place back.
 pub const MAX_JOINED: usize = 256;
 
 /// The shortest time between two accepted connections: at most 500 a second.
@@ -346,20 +347,19 @@ fn accept_workers(endpoint: &str) -> anyhow::Result<(Acceptor, Receiver<Link>)> 
     std::thread::Builder::new()
         .name("strahl-accept".to_string())
         .spawn(move || {
-            let mut joined = 0;
+            let joined = Arc::new(AtomicUsize::new(0));
             while !flag.load(Ordering::Relaxed) {
                 match listener.accept() {
-                    Ok((stream, _)) if joined >= MAX_JOINED => {
+                    Ok((stream, _)) if joined.load(Ordering::SeqCst) >= MAX_JOINED => {
                         let _ = stream.shutdown(std::net::Shutdown::Both);
                     }
                     Ok((stream, peer)) => {
-                        joined += 1;
                         std::thread::sleep(ACCEPT_PACE);
                         let link = stream
                             .set_nonblocking(false)
                             .and_then(|()| Link::from_tcp(peer.to_string(), stream));
                         if let Ok(link) = link {
-                            if tx.send(link).is_err() {
+                            if tx.send(link.counted(Arc::clone(&joined))).is_err() {
                                 return;
                             }
                         }

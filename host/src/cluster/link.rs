@@ -6,6 +6,8 @@
 use crate::cluster::pipe::PipeEnd;
 use std::fmt;
 use std::io::{Read, Write};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
 
 /// What carries a link.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -97,6 +99,17 @@ impl Link {
         })
     }
 
+    /// This link, counted in `live` while its reader is alive: one more now, one less when the
+    /// master's reader thread ends with the link.
+    pub fn counted(mut self, live: Arc<AtomicUsize>) -> Self {
+        live.fetch_add(1, Ordering::SeqCst);
+        self.reader = Box::new(Counted {
+            inner: self.reader,
+            live,
+        });
+        self
+    }
+
     /// A link over an open serial port. Its reads time out; the master treats that as "no data
     /// yet". Closing stops the master's reader at its next time-out.
     ///
@@ -128,6 +141,24 @@ impl Link {
                 hang_up_flag.store(true, std::sync::atomic::Ordering::Relaxed);
             }),
         })
+    }
+}
+
+/// A reader counted in a number of live links (see [`Link::counted`]).
+struct Counted {
+    inner: Box<dyn Read + Send>,
+    live: Arc<AtomicUsize>,
+}
+
+impl Read for Counted {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        self.inner.read(buf)
+    }
+}
+
+impl Drop for Counted {
+    fn drop(&mut self) {
+        self.live.fetch_sub(1, Ordering::SeqCst);
     }
 }
 
