@@ -540,7 +540,7 @@ fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
         r.check(s.width, s.height).map_err(usage)?;
     }
     let secret = load_secret(args.cluster.secret_file.as_deref())?;
-    check_image_memory(&loaded, crate::util::sys::available_memory())?;
+    check_image_memory(&loaded, kind, crate::util::sys::available_memory())?;
     if let Some(stats) = &args.stats_json {
         check_stats_path(stats)?;
     }
@@ -641,17 +641,23 @@ pub fn scene_format(path: &Path) -> anyhow::Result<SceneFormat> {
 
 /// Refuses, before anything is built, an image whose pixels cannot fit in the memory the system
 /// reports available (`have`; `None`: it does not say).
-fn check_image_memory(loaded: &LoadedScene, have: Option<u64>) -> anyhow::Result<()> {
+fn check_image_memory(
+    loaded: &LoadedScene,
+    kind: ImageKind,
+    have: Option<u64>,
+) -> anyhow::Result<()> {
     let s = &loaded.desc.settings;
-    let need = image_memory(s.width, s.height);
+    let need = image_memory(kind, s.width, s.height);
     match have {
         Some(have) if need > have => Err(anyhow!(
-            "{}: a {}x{} image needs {} for its pixels (6 bytes each while rendering, 3 to \
-             write them), and the system has {} available; render a smaller image",
+            "{}: a {}x{} image needs {} for its pixels (6 bytes each while rendering, and \
+             what writing it as {} copies), and the system has {} available; render a smaller \
+             image",
             loaded.config_path.display(),
             s.width,
             s.height,
             crate::util::units::format_bytes(usize::try_from(need).unwrap_or(usize::MAX)),
+            kind.name(),
             crate::util::units::format_bytes(usize::try_from(have).unwrap_or(usize::MAX))
         )),
         _ => Ok(()),
@@ -983,15 +989,17 @@ mod tests {
             config_path: "raytracer.cfg".into(),
             data_path: "ROOM.txt".into(),
         };
-        let need = image_memory(32768, 32768);
-        assert_eq!(need, 9_663_676_416);
-        let err = check_image_memory(&loaded, Some(need - 1)).expect_err("too large");
+        let need = image_memory(ImageKind::Bmp, 32768, 32768);
+        assert_eq!(need, 6_442_450_944, "BMP is written row by row: no copy");
+        assert_eq!(image_memory(ImageKind::Png, 32768, 32768), 9_663_676_416);
+        let err =
+            check_image_memory(&loaded, ImageKind::Bmp, Some(need - 1)).expect_err("too large");
         let text = err.to_string();
         assert!(
             text.starts_with("raytracer.cfg: a 32768x32768 image needs"),
             "{text}"
         );
-        assert!(check_image_memory(&loaded, Some(need)).is_ok());
-        assert!(check_image_memory(&loaded, None).is_ok());
+        assert!(check_image_memory(&loaded, ImageKind::Bmp, Some(need)).is_ok());
+        assert!(check_image_memory(&loaded, ImageKind::Bmp, None).is_ok());
     }
 }

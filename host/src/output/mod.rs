@@ -7,8 +7,11 @@
 //! destination folder before any rendering starts, so a bad `-o` fails at once. [`write_image`]
 //! writes into a temporary file in the destination folder and renames it over the destination
 //! only when the image is complete, so a failed run never leaves a partial or empty image
-//! behind. Every 8-bit format quantises with [`Pixel::to_rgb8`]; PNG 16 and EXR carry the
+//! behind. BMP and PPM are written row by row ([`rows`]), with no 8-bit copy of the image.
+//! Every 8-bit format quantises with [`Pixel::to_rgb8`]; PNG 16 and EXR carry the
 //! wire's 16-bit values (clamped to `[0, 1]` by the renderer, so EXR holds no value above 1).
+
+mod rows;
 
 use crate::formats::fs::{destination_folder, write_atomically};
 use crate::util::usage::usage;
@@ -59,12 +62,19 @@ impl ImageKind {
             .ok_or_else(|| format!("unknown image format `{name}`; Strahl writes {FORMAT_LIST}"))
     }
 
-    /// The `image` crate's format.
+    /// The format's `--format` name.
+    pub fn name(self) -> &'static str {
+        FORMATS
+            .iter()
+            .find(|&&(_, _, kind)| kind == self)
+            .map_or("bmp", |&(name, _, _)| name)
+    }
+
+    /// The `image` crate's format (BMP and PPM are written by [`rows`] instead).
     fn format(self) -> image::ImageFormat {
         match self {
             ImageKind::Bmp => image::ImageFormat::Bmp,
             ImageKind::Png | ImageKind::Png16 => image::ImageFormat::Png,
-            // (Written as P6 by `encode_to`.)
             ImageKind::Ppm => image::ImageFormat::Pnm,
             ImageKind::Exr => image::ImageFormat::OpenExr,
         }
@@ -152,10 +162,17 @@ pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Resu
     Ok(kind)
 }
 
-/// Bytes a `width × height` render holds at its peak: the 16-bit pixels the master assembles
-/// and the 8-bit copy the image file is written from.
-pub fn image_memory(width: u32, height: u32) -> u64 {
-    u64::from(width) * u64::from(height) * (6 + 3)
+/// Bytes a `width × height` render written as `kind` holds at its peak: the 16-bit pixels the
+/// master assembles (6 a pixel), and the copy the `image` crate encodes from (3 a pixel for
+/// PNG, 6 for PNG 16, 12 for EXR; none for BMP and PPM, written row by row by [`rows`]).
+pub fn image_memory(kind: ImageKind, width: u32, height: u32) -> u64 {
+    let copy = match kind {
+        ImageKind::Bmp | ImageKind::Ppm => 0,
+        ImageKind::Png => 3,
+        ImageKind::Png16 => 6,
+        ImageKind::Exr => 12,
+    };
+    u64::from(width) * u64::from(height) * (6 + copy)
 }
 
 /// The 8-bit RGB image of `pixels` (row-major, top row first).
@@ -163,13 +180,8 @@ pub fn image_memory(width: u32, height: u32) -> u64 {
 /// # Errors
 /// When `pixels` does not hold exactly `width × height` pixels.
 pub fn to_rgb_image(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result<image::RgbImage> {
+    check_pixel_count(width, height, pixels)?;
     let expected = width as usize * height as usize;
-    if pixels.len() != expected {
-        bail!(
-            "cannot write a {width}x{height} image from {} pixels ({expected} expected)",
-            pixels.len()
-        );
-    }
     // Sized once: a large image must not pass through a growing buffer's copies.
     let mut raw: Vec<u8> = Vec::with_capacity(expected * 3);
     for p in pixels {
@@ -196,34 +208,61 @@ pub fn write_image(
     pixels: &[Pixel],
 ) -> anyhow::Result<()> {
     check_output_path(path, Some(kind))?;
-    let img = encode_image(kind, width, height, pixels)?;
+    check_pixel_count(width, height, pixels)?;
     let failed = |e| anyhow::anyhow!("{}: cannot write the image: {e}", path.display());
     if is_stdout(path) {
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        encode_to(&img, kind, &mut bytes).map_err(failed)?;
-        let mut out = std::io::stdout().lock();
-        return out
-            .write_all(bytes.get_ref())
-            .and_then(|()| out.flush())
+        return write_stdout(kind, width, height, pixels)
             .context("cannot write the image to standard output");
     }
-    write_atomically(path, |w| encode_to(&img, kind, w).map_err(failed))
+    write_atomically(path, |w| {
+        encode(kind, width, height, pixels, w).map_err(|e| failed(format!("{e:#}")))
+    })
 }
 
-/// Writes `img` to `w` as `kind`: PPM as binary `P6` (the `image` crate's default for PNM is
-/// PAM), the others by the `image` crate's format.
-fn encode_to(
-    img: &image::DynamicImage,
-    kind: ImageKind,
-    w: &mut (impl std::io::Write + std::io::Seek),
-) -> image::ImageResult<()> {
-    use image::codecs::pnm::{PnmEncoder, PnmSubtype, SampleEncoding};
+/// Writes the image to standard output: BMP and PPM row by row, the others encoded first (the
+/// `image` crate's encoders want to seek).
+fn write_stdout(kind: ImageKind, width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result<()> {
+    let mut out = std::io::BufWriter::new(std::io::stdout().lock());
     match kind {
-        ImageKind::Ppm => img.write_with_encoder(
-            PnmEncoder::new(w).with_subtype(PnmSubtype::Pixmap(SampleEncoding::Binary)),
-        ),
-        _ => img.write_to(w, kind.format()),
+        ImageKind::Bmp => rows::write_bmp(&mut out, width, height, pixels)?,
+        ImageKind::Ppm => rows::write_ppm(&mut out, width, height, pixels)?,
+        _ => {
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            encode(kind, width, height, pixels, &mut bytes)?;
+            out.write_all(bytes.get_ref())?;
+            out.flush()?;
+        }
     }
+    Ok(())
+}
+
+/// Writes the image to `w`: BMP and PPM row by row ([`rows`]), the others through the `image`
+/// crate.
+fn encode(
+    kind: ImageKind,
+    width: u32,
+    height: u32,
+    pixels: &[Pixel],
+    w: &mut (impl std::io::Write + std::io::Seek),
+) -> anyhow::Result<()> {
+    match kind {
+        ImageKind::Bmp => rows::write_bmp(w, width, height, pixels)?,
+        ImageKind::Ppm => rows::write_ppm(w, width, height, pixels)?,
+        _ => encode_image(kind, width, height, pixels)?.write_to(w, kind.format())?,
+    }
+    Ok(())
+}
+
+/// Fails unless `pixels` holds exactly `width × height` pixels.
+fn check_pixel_count(width: u32, height: u32, pixels: &[Pixel]) -> anyhow::Result<()> {
+    let expected = width as usize * height as usize;
+    if pixels.len() != expected {
+        bail!(
+            "cannot write a {width}x{height} image from {} pixels ({expected} expected)",
+            pixels.len()
+        );
+    }
+    Ok(())
 }
 
 /// The `image` crate's image of `pixels` in the precision `kind` keeps.
@@ -233,13 +272,7 @@ fn encode_image(
     height: u32,
     pixels: &[Pixel],
 ) -> anyhow::Result<image::DynamicImage> {
-    let expected = width as usize * height as usize;
-    if pixels.len() != expected {
-        bail!(
-            "cannot write a {width}x{height} image from {} pixels ({expected} expected)",
-            pixels.len()
-        );
-    }
+    check_pixel_count(width, height, pixels)?;
     let mismatch =
         || anyhow::anyhow!("cannot write the image: its pixel buffer does not match its size");
     Ok(match kind {
