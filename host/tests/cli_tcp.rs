@@ -243,6 +243,11 @@ fn hello(version: u32, name: &str) -> Hello<'_> {
     }
 }
 
+/// `n` connections to `address` that say nothing.
+fn connections(address: &str, n: usize) -> std::io::Result<Vec<TcpStream>> {
+    (0..n).map(|_| TcpStream::connect(address)).collect()
+}
+
 /// A port on 127.0.0.1 that was free a moment ago.
 fn free_port() -> Result<u16, Box<dyn Error>> {
     Ok(TcpListener::bind("127.0.0.1:0")?.local_addr()?.port())
@@ -883,9 +888,7 @@ fn silent_connections_do_not_keep_a_worker_from_its_master() -> TestResult {
     // serves the master all the same (before, it served connections one at a time and waited
     // on the first for ever).
     let (w, a) = Proc::listening_worker("besieged")?;
-    let silent: Vec<TcpStream> = (0..3)
-        .map(|_| TcpStream::connect(&a))
-        .collect::<Result<_, _>>()?;
+    let silent = connections(&a, 3)?;
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let r = render(
@@ -950,9 +953,7 @@ fn one_address_holds_at_most_half_of_a_workers_connections() -> TestResult {
     // Connections that say nothing, all from 127.0.0.1: the fifth is refused at once (four
     // places are left for other machines' masters).
     let (w, a) = Proc::listening_worker("shared")?;
-    let _silent: Vec<TcpStream> = (0..5)
-        .map(|_| TcpStream::connect(&a))
-        .collect::<Result<_, _>>()?;
+    let _silent = connections(&a, 5)?;
     let (refused, text) = w.wait_stderr(Duration::from_secs(20), |t| {
         t.contains("refused: 4 connections from 127.0.0.1 are open already")
     });
