@@ -6,6 +6,7 @@ use crate::util::secret::Secret;
 use std::sync::Arc;
 use std::time::Duration;
 use strahl_core::render::pixel::Pixel;
+use strahl_core::render::ray_limit::LineRayLimits;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::Scene;
 use strahl_core::wire::scene_blob::SceneBlob;
@@ -74,6 +75,8 @@ pub struct ClusterJob {
     pub height: u32,
     /// Adaptive multisampling's second pass, if the scene uses it.
     pub adaptive: Option<AdaptiveJob>,
+    /// The rays a line result can report: a worker whose counts lie beyond them is dropped.
+    pub ray_limits: LineRayLimits,
     /// The scene itself, where the master has it: with `--verify` it renders a line itself
     /// when two workers' results differ, to tell which is wrong.
     pub scene: Option<Arc<Scene>>,

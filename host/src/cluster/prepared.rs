@@ -5,6 +5,7 @@ use crate::cluster::master::{AdaptiveJob, ClusterJob};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
 use strahl_core::accel::octree::OctreeParams;
+use strahl_core::render::ray_limit::LineRayLimits;
 use strahl_core::scene::effects::is_adaptive;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{Scene, SceneDesc};
@@ -63,6 +64,7 @@ impl PreparedScene {
             width: self.scene.settings.width,
             height: self.scene.settings.height,
             scene: Some(Arc::clone(&self.scene)),
+            ray_limits: LineRayLimits::new(&self.scene.settings, self.scene.lights.len()),
             adaptive: self
                 .scene
                 .settings

@@ -24,6 +24,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use strahl_core::render::pixel::Pixel;
+use strahl_core::render::ray_limit::LinePass;
 use strahl_core::render::stats::RayCounts;
 use strahl_core::wire::auth::{self, Nonce, Proof, Role};
 use strahl_core::wire::message::{
@@ -484,18 +485,14 @@ impl<'a> Session<'a> {
                 && (!refined || self.job.adaptive.is_some()) =>
             {
                 let task = Task::from_wire(line, refined);
-                // A first pass traces one primary ray per pixel, a second pass none: a count
-                // that a line cannot have comes from a broken or hostile worker.
-                let primary = if refined {
-                    0
+                // A count that a line cannot have comes from a broken or hostile worker.
+                let pass = if refined {
+                    LinePass::Refined
                 } else {
-                    u64::from(self.job.width)
+                    LinePass::First
                 };
-                if rays.primary != primary {
-                    let reason = format!(
-                        "it reported {} primary rays for a line of {} pixels",
-                        rays.primary, self.job.width
-                    );
+                if let Some(impossible) = self.job.ray_limits.check(&rays, pass) {
+                    let reason = format!("it reported {impossible} (line {line})");
                     return self.lose(id, reason, wire);
                 }
                 self.take_line(id, task, (rays, &pixels), now, wire);
@@ -1131,6 +1128,8 @@ mod tests {
     use super::*;
     use crate::cluster::job::AdaptiveJob;
     use std::sync::Mutex;
+    use strahl_core::render::ray_limit::LineRayLimits;
+    use strahl_core::scene::settings::RenderSettings;
     use strahl_core::wire::scene_blob::{digest, SceneBlob};
 
     /// A wire that writes down what the session sends and cuts.
@@ -1197,6 +1196,16 @@ mod tests {
             height,
             adaptive,
             scene: None,
+            ray_limits: LineRayLimits::new(
+                &RenderSettings {
+                    width,
+                    height,
+                    samples: if adaptive.is_some() { 2 } else { 1 },
+                    aa_threshold: adaptive.map(|a| a.threshold),
+                    ..RenderSettings::default()
+                },
+                1,
+            ),
         }
     }
 
@@ -1362,8 +1371,8 @@ mod tests {
         assert!(pixels[2..].iter().all(|p| *p == Pixel([7; 3])));
     }
 
-    #[test]
-    fn a_result_with_impossible_ray_counts_drops_the_worker() {
+    /// Worker 0's first line, with `rays` for counts: the reason it was dropped for, if it was.
+    fn dropped_for(rays: RayCounts) -> Option<String> {
         let job = job(2, 3, None);
         let opts = MasterOptions::default();
         let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
@@ -1377,23 +1386,56 @@ mod tests {
             job: job.id,
             line: 0,
             refined: false,
-            rays: RayCounts {
-                primary: u64::MAX,
-                ..RayCounts::default()
-            },
+            rays,
             pixels,
         };
         s.handle(Event::Message(0, forged), &mut wire);
-        assert_eq!(wire.cut, [0]);
+        if wire.cut.is_empty() {
+            return None;
+        }
         let image = s.into_image();
         let Err(ClusterError::AllWorkersLost { workers, .. }) = image else {
             panic!("the only worker is lost");
         };
-        let reason = workers[0].lost.as_deref().unwrap_or_default();
-        assert!(
-            reason.contains("primary rays for a line of 2 pixels"),
-            "{reason}"
-        );
+        workers[0].lost.clone()
+    }
+
+    #[test]
+    fn a_result_with_impossible_ray_counts_drops_the_worker() {
+        let honest = RayCounts {
+            primary: 2,
+            // Depth 16, one light: a line of 2 pixels makes at most 2 × (2^17 − 1) hits.
+            shadow: 2 * ((1 << 17) - 1),
+            ..RayCounts::default()
+        };
+        assert_eq!(dropped_for(honest), None);
+        let cases = [
+            (
+                RayCounts {
+                    primary: u64::MAX,
+                    ..honest
+                },
+                "18446744073709551615 primary rays where a line has exactly 2",
+            ),
+            (
+                RayCounts {
+                    shadow: honest.shadow + 1,
+                    ..honest
+                },
+                "262143 shadow rays where a line has at most 262142",
+            ),
+            (
+                RayCounts {
+                    extra_samples: 5,
+                    ..honest
+                },
+                "5 extra sample rays where a line has exactly 0",
+            ),
+        ];
+        for (rays, expected) in cases {
+            let reason = dropped_for(rays).unwrap_or_default();
+            assert!(reason.contains(expected), "{reason}");
+        }
     }
 
     #[test]
