@@ -207,38 +207,29 @@ impl Octree {
                 cutoff = leaf(&self.indices[start..start + node.count as usize]);
                 continue;
             }
-            let mid = e.cell.center();
-            let (pieces, n) = pieces(ray, inv_dir, &e, mid, widen);
-            // Push far pieces first so the nearest is popped next.
-            for &(c, p0, p1) in pieces[..=n].iter().rev() {
-                if !node.child_occupied(c) {
-                    continue;
-                }
-                let index = node.first + c as u32;
-                stack[top] = Entry {
-                    node: index,
-                    cell: child_box(&e.cell, mid, c),
-                    t0: p0,
-                    t1: p1,
-                };
-                top += 1;
-            }
+            top = push_children(ray, inv_dir, &e, node, widen, &mut stack, top);
         }
         cells
     }
 }
 
-/// The children of `e`'s cell that the ray crosses, in ray order, as (child, t0, t1) pieces of
-/// the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]`, each widened by `widen` around its
-/// inner crossings of the centre planes through `mid`; returns them and the count less one.
+/// Pushes the occupied children of interior node `node` (entered as `e`) that the ray crosses,
+/// farthest first, so the nearest is popped next; returns the new stack top. The pieces of the
+/// entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's crossings `c` of
+/// the centre planes and widened by `widen` around each. They are written straight into the
+/// stack, field by field: a piece array returned by value and copied (an earlier version) made
+/// the processor wait for its stores on every interior cell.
 #[inline(always)]
-fn pieces(
+fn push_children(
     ray: &Ray,
     inv_dir: Vec3,
     e: &Entry,
-    mid: Vec3,
+    node: super::Node,
     widen: f32,
-) -> ([(usize, f32, f32); 4], usize) {
+    stack: &mut [Entry; STACK_SIZE],
+    mut top: usize,
+) -> usize {
+    let mid = e.cell.center();
     // Where the ray crosses each centre plane, and on which side it starts.
     let mut cross = [f32::INFINITY; 3];
     let mut child = 0usize;
@@ -266,16 +257,33 @@ fn pieces(
         }
     }
     sort3(&mut events);
-    // Pieces: [t0, c1], [c1, c2], ..., [cn, t1], each widened around its inner crossings.
-    let mut pieces = [(0usize, 0.0f32, 0.0f32); 4];
-    let mut start = e.t0;
-    for (k, &(c, a)) in events[..n].iter().enumerate() {
-        pieces[k] = (child, start, c * (1.0 + widen));
+    // The last piece's child has crossed every plane; walk back from it.
+    for &(_, a) in &events[..n] {
         child ^= 1 << a;
-        start = c * (1.0 - widen);
     }
-    pieces[n] = (child, start, e.t1);
-    (pieces, n)
+    let mut end = e.t1;
+    for k in (0..=n).rev() {
+        let start = if k == 0 {
+            e.t0
+        } else {
+            events[k - 1].0 * (1.0 - widen)
+        };
+        if node.child_occupied(child) {
+            stack[top] = Entry {
+                node: node.first + child as u32,
+                cell: child_box(&e.cell, mid, child),
+                t0: start,
+                t1: end,
+            };
+            top += 1;
+        }
+        if k > 0 {
+            let (c, a) = events[k - 1];
+            child ^= 1 << a;
+            end = c * (1.0 + widen);
+        }
+    }
+    top
 }
 
 /// Sorts three (t, axis) pairs by t; infinities (unused slots) sort last.
