@@ -3,7 +3,9 @@
 //! A cell is entered with the ray-parameter interval `[t0, t1]` in which the ray is inside it. The
 //! three centre planes cut that interval into at most four pieces, one per child crossed; pieces
 //! share their computed plane-crossing values, so they leave no gap, and each is widened by the
-//! rounding error bound of that crossing so a ray near a plane visits both cells.
+//! rounding error bound of that crossing so a ray near a plane visits both cells. Stack entries
+//! hold no box: a cell's box is cut from its parent's when it is entered, with the build's own
+//! `child_box`, so the walk's cells are the build's to the bit.
 
 use super::build::child_box;
 use super::{Hit, Octree, MAX_DEPTH_LIMIT};
@@ -14,6 +16,10 @@ use crate::math::aabb::Aabb;
 use crate::math::float::{gamma, MACHINE_EPSILON};
 use crate::math::ray::Ray;
 use glam::Vec3;
+
+/// How much a piece of a ray's interval is widened, relatively, around a crossing of a centre
+/// plane: twice the error bound of the three roundings in a crossing `(mid − o) · (1/d)`.
+const WIDEN: f32 = 2.0 * gamma(3);
 
 /// Each level pushes at most four cells and pops one.
 const STACK_SIZE: usize = 3 * MAX_DEPTH_LIMIT as usize + 2;
@@ -43,12 +49,41 @@ impl Mailbox {
     }
 }
 
-#[derive(Clone, Copy)]
+/// A cell waiting on the walk's stack: its node, the ray's interval `[t0, t1]` in it, its depth
+/// and which child of its parent it is. Its box is not stored: it is derived from the parent's
+/// when the cell is entered (see [`Path`]), so leaves and skipped cells never compute one.
+#[derive(Clone, Copy, Default)]
 struct Entry {
     node: u32,
-    cell: Aabb,
     t0: f32,
     t1: f32,
+    depth: u16,
+    child: u16,
+}
+
+/// The box of the interior cell the walk entered last at each depth. The walk is depth first, so
+/// the parent of a cell popped at depth `d` is the cell entered last at depth `d − 1`: its box
+/// is `boxes[d − 1]`, and the child's is cut from it exactly as the build cut it.
+struct Path {
+    boxes: [Aabb; MAX_DEPTH_LIMIT as usize + 1],
+}
+
+impl Path {
+    /// The box of the cell `e`, an interior node, which the walk enters now (remembered for its
+    /// children).
+    #[inline(always)]
+    fn enter(&mut self, e: &Entry, root: Aabb) -> Aabb {
+        let d = e.depth as usize;
+        let cell = match d.checked_sub(1) {
+            None => root,
+            Some(up) => {
+                let parent = &self.boxes[up];
+                child_box(parent, parent.center(), e.child as usize)
+            }
+        };
+        self.boxes[d] = cell;
+        cell
+    }
 }
 
 impl Octree {
@@ -172,22 +207,18 @@ impl Octree {
             return 0;
         };
         let mut cells = 0u64;
-        let widen = 2.0 * gamma(3);
-        // All-zero entries: the compiler clears the stack with one fill.
-        let mut stack = [Entry {
-            node: 0,
-            cell: Aabb {
+        // All-zero entries and boxes: the compiler clears them with one fill each.
+        let mut stack = [Entry::default(); STACK_SIZE];
+        let mut path = Path {
+            boxes: [Aabb {
                 min: Vec3::ZERO,
                 max: Vec3::ZERO,
-            },
-            t0: 0.0,
-            t1: 0.0,
-        }; STACK_SIZE];
+            }; MAX_DEPTH_LIMIT as usize + 1],
+        };
         stack[0] = Entry {
-            node: 0,
-            cell: self.bounds,
-            t0: t0 * (1.0 - widen),
+            t0: t0 * (1.0 - WIDEN),
             t1,
+            ..Entry::default()
         };
         let mut top = 1usize;
         let mut cutoff = f32::INFINITY;
@@ -207,16 +238,17 @@ impl Octree {
                 cutoff = leaf(&self.indices[start..start + node.count as usize]);
                 continue;
             }
-            top = push_children(ray, inv_dir, &e, node, widen, &mut stack, top);
+            let cell = path.enter(&e, self.bounds);
+            top = push_children(ray, inv_dir, &e, node, cell.center(), &mut stack, top);
         }
         cells
     }
 }
 
-/// Pushes the occupied children of interior node `node` (entered as `e`) that the ray crosses,
-/// farthest first, so the nearest is popped next; returns the new stack top. The pieces of the
-/// entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's crossings `c` of
-/// the centre planes and widened by `widen` around each. They are written straight into the
+/// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) that
+/// the ray crosses, farthest first, so the nearest is popped next; returns the new stack top.
+/// The pieces of the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's crossings `c` of
+/// the centre planes and widened by [`WIDEN`] around each. They are written straight into the
 /// stack, field by field: a piece array returned by value and copied (an earlier version) made
 /// the processor wait for its stores on every interior cell.
 #[inline(always)]
@@ -225,11 +257,10 @@ fn push_children(
     inv_dir: Vec3,
     e: &Entry,
     node: super::Node,
-    widen: f32,
+    mid: Vec3,
     stack: &mut [Entry; STACK_SIZE],
     mut top: usize,
 ) -> usize {
-    let mid = e.cell.center();
     // Where the ray crosses each centre plane, and on which side it starts.
     let mut cross = [f32::INFINITY; 3];
     let mut child = 0usize;
@@ -266,21 +297,22 @@ fn push_children(
         let start = if k == 0 {
             e.t0
         } else {
-            events[k - 1].0 * (1.0 - widen)
+            events[k - 1].0 * (1.0 - WIDEN)
         };
         if node.child_occupied(child) {
             stack[top] = Entry {
                 node: node.first + child as u32,
-                cell: child_box(&e.cell, mid, child),
                 t0: start,
                 t1: end,
+                depth: e.depth + 1,
+                child: child as u16,
             };
             top += 1;
         }
         if k > 0 {
             let (c, a) = events[k - 1];
             child ^= 1 << a;
-            end = c * (1.0 + widen);
+            end = c * (1.0 + WIDEN);
         }
     }
     top
