@@ -75,7 +75,7 @@ impl Scene {
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())
             .collect();
-        let octree = Octree::build_mixed(&triangle_points, solids.bounds(), params);
+        let octree = Octree::build_mixed(&triangle_points, &solids.extents(), params);
         let bounds = octree.bounds();
         Ok(Scene {
             settings: desc.settings,

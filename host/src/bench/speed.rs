@@ -95,9 +95,10 @@ pub fn run(opts: &BenchOptions) -> anyhow::Result<BenchReport> {
     let runs = opts.runs.max(1);
 
     let mut builds = Vec::with_capacity(runs);
+    let extents = scene.solids.extents();
     let mut build = || {
         let start = Instant::now();
-        let tree = Octree::build_mixed(&scene.triangle_points, scene.solids.bounds(), &opts.octree);
+        let tree = Octree::build_mixed(&scene.triangle_points, &extents, &opts.octree);
         builds.push(start.elapsed());
         tree
     };

@@ -1,6 +1,6 @@
 //! The octree build stays within its memory budget and still splits where splitting pays.
 
-use strahl_core::accel::octree::{Octree, OctreeParams, BYTES_PER_PRIMITIVE};
+use strahl_core::accel::octree::{Octree, OctreeParams, SolidExtent, BYTES_PER_PRIMITIVE};
 use strahl_core::math::aabb::Aabb;
 use strahl_core::scene::mesh::Rng;
 use strahl_core_tests::meshes::random_soup;
@@ -29,16 +29,16 @@ fn overlapping_boxes_are_split_only_while_it_pays() {
         min: glam::Vec3::splat(-1.0),
         max: glam::Vec3::splat(1.0),
     };
-    let solids = vec![Some(cube); 1000];
+    let solids = vec![SolidExtent::Box(cube); 1000];
     let tree = Octree::build_mixed(&[], &solids, &OctreeParams::default());
     assert_eq!(tree.stats().nodes, 1, "{:?}", tree.stats());
     // Two clusters far apart are separated.
-    let mut solids = vec![Some(cube); 500];
+    let mut solids = vec![SolidExtent::Box(cube); 500];
     let far = Aabb {
         min: glam::Vec3::splat(9.0),
         max: glam::Vec3::splat(10.0),
     };
-    solids.extend(vec![Some(far); 500]);
+    solids.extend(vec![SolidExtent::Box(far); 500]);
     let tree = Octree::build_mixed(&[], &solids, &OctreeParams::default());
     assert!(tree.stats().nodes > 1, "{:?}", tree.stats());
     assert!(tree.stats().max_leaf_triangles <= 500, "{:?}", tree.stats());

@@ -2,7 +2,8 @@
 //! best first, within a memory budget; file each primitive in every child it touches.
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
-//! `T..`): a triangle is filed by the exact triangle/box test, a solid by its world bounding box.
+//! `T..`): a triangle is filed by the exact triangle/box test, a sphere standing alone by where
+//! its surface is, another solid by its world bounding box.
 //!
 //! A leaf that may be split is queued at the most its split could gain; when it comes first it
 //! is appraised (its children's lists computed, and the split's gain in expected tests per ray
@@ -12,8 +13,8 @@
 //! leaf whose split would not pay (its primitives overlap too much to separate) stays a leaf. The
 //! order depends only on the scene, so every machine builds the same tree.
 
-use super::overlap::triangle_box_overlap;
-use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
+use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
+use super::{Node, Octree, OctreeParams, OctreeStats, SolidExtent, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
@@ -51,8 +52,10 @@ const ENTRY_BYTES: usize = core::mem::size_of::<u32>();
 
 struct Builder<'a> {
     triangles: &'a [[Vec3; 3]],
-    /// World boxes of primitives `T..` (solids); only the bounded ones are filed.
+    /// Boxes of every primitive (triangles, then solids); only the bounded solids are filed.
     boxes: Vec<Aabb>,
+    /// How each solid is filed (primitive `T + j` is solid `j`).
+    solids: &'a [SolidExtent],
     params: OctreeParams,
     /// How far every cell is grown before the overlap test: the rounding error bound of the test
     /// at the scene's magnitude, so a triangle on a cell boundary is filed on both sides.
@@ -84,11 +87,11 @@ impl Octree {
         Self::build_mixed(triangles, &[], params)
     }
 
-    /// Builds the octree over `triangles` (primitives `0..T`) and solids with the world boxes
-    /// `solids` (primitives `T..`). A solid whose box is `None` (unbounded) is not filed.
+    /// Builds the octree over `triangles` (primitives `0..T`) and `solids` (primitives `T..`).
+    /// An unbounded solid is not filed.
     pub fn build_mixed(
         triangles: &[[Vec3; 3]],
-        solids: &[Option<Aabb>],
+        solids: &[SolidExtent],
         params: &OctreeParams,
     ) -> Octree {
         let params = OctreeParams {
@@ -100,6 +103,7 @@ impl Octree {
         let mut b = Builder {
             triangles,
             boxes,
+            solids,
             params,
             margin: magnitude * gamma(16),
             nodes: Vec::new(),
@@ -134,7 +138,7 @@ const MIN_BUDGET: usize = 64 * 1024;
 /// the box around the filed ones.
 fn filed_primitives(
     triangles: &[[Vec3; 3]],
-    solids: &[Option<Aabb>],
+    solids: &[SolidExtent],
 ) -> (Vec<u32>, Vec<Aabb>, Aabb) {
     let mut bounds = Aabb::EMPTY;
     let mut filed = Vec::with_capacity(triangles.len() + solids.len());
@@ -148,10 +152,10 @@ fn filed_primitives(
             bounds.max = bounds.max.max(b.max);
         }
     }
-    for (j, b) in solids.iter().enumerate() {
-        match b {
+    for (j, solid) in solids.iter().enumerate() {
+        match solid.bounds() {
             Some(b) => {
-                boxes.push(*b);
+                boxes.push(b);
                 filed.push((triangles.len() + j) as u32);
                 bounds.min = bounds.min.min(b.min);
                 bounds.max = bounds.max.max(b.max);
@@ -358,7 +362,17 @@ impl Builder<'_> {
         let m = Vec3::splat(self.margin);
         let (lo, hi) = (cb.min - m, cb.max + m);
         let Some(p) = self.triangles.get(t) else {
-            // A solid: its world box against the grown cell.
+            let solid = self.solids.get(t - self.triangles.len());
+            if let Some(&SolidExtent::Sphere {
+                center,
+                radius,
+                margin,
+                ..
+            }) = solid
+            {
+                return sphere_surface_box_overlap(center, radius, margin, lo, hi);
+            }
+            // Another solid: its world box against the grown cell.
             let b = &self.boxes[t];
             return b.min.cmple(hi).all() && b.max.cmpge(lo).all();
         };

@@ -1,6 +1,39 @@
-//! Triangle/box overlap by the separating-axis theorem (Akenine-Möller 2001).
+//! Whether a primitive must be filed in a cell: triangle/box overlap by the separating-axis
+//! theorem (Akenine-Möller 2001), and a sphere's surface against a box (Arvo 1990: the nearest
+//! and the farthest point of the box from the centre).
 
 use glam::Vec3;
+
+/// True if the surface of the sphere `center`, `radius` comes within `margin` of the box
+/// `lo..hi`: the box reaches the sphere grown by `margin` and is not inside the sphere shrunk by
+/// it. A ray can only hit the sphere where its surface is, so a cell wholly inside or outside
+/// it needs no test of it. In `f64`, whose rounding is far below any margin a caller gives.
+pub(super) fn sphere_surface_box_overlap(
+    center: Vec3,
+    radius: f32,
+    margin: f32,
+    lo: Vec3,
+    hi: Vec3,
+) -> bool {
+    let (mut near, mut far) = (0.0f64, 0.0f64);
+    for a in 0..3 {
+        let c = f64::from(center[a]);
+        let (l, h) = (f64::from(lo[a]), f64::from(hi[a]));
+        let d = if c < l {
+            l - c
+        } else if c > h {
+            c - h
+        } else {
+            0.0
+        };
+        near += d * d;
+        let f = (c - l).abs().max((h - c).abs());
+        far += f * f;
+    }
+    let outer = f64::from(radius) + f64::from(margin);
+    let inner = (f64::from(radius) - f64::from(margin)).max(0.0);
+    near <= outer * outer && far >= inner * inner
+}
 
 /// True unless one of the 13 separating axes (3 box faces, the triangle's plane, 9 edge cross
 /// products) separates the triangle from the box `centre ± half`. Touching counts as overlap.
@@ -43,6 +76,83 @@ pub(super) fn triangle_box_overlap(center: Vec3, half: Vec3, tri: &[Vec3; 3]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_sphere_is_filed_where_its_surface_is() {
+        let (lo, hi) = (Vec3::splat(-0.1), Vec3::splat(0.1));
+        // The box around the centre, inside the sphere: no surface there.
+        assert!(!sphere_surface_box_overlap(Vec3::ZERO, 1.0, 1e-4, lo, hi));
+        // The surface passes through the box.
+        assert!(sphere_surface_box_overlap(
+            Vec3::new(1.0, 0.0, 0.0),
+            1.0,
+            1e-4,
+            lo,
+            hi
+        ));
+        // Outside, beyond the margin; then within it.
+        let c = Vec3::new(1.2, 0.0, 0.0);
+        assert!(!sphere_surface_box_overlap(c, 1.0, 1e-4, lo, hi));
+        assert!(sphere_surface_box_overlap(c, 1.0, 0.11, lo, hi));
+        // Inside, the box's far corner 0.05 below the surface: kept only with a wider margin.
+        let far_corner = libm::sqrtf(3.0 * 0.01);
+        assert!(sphere_surface_box_overlap(
+            Vec3::ZERO,
+            far_corner + 0.05,
+            0.06,
+            lo,
+            hi
+        ));
+        assert!(!sphere_surface_box_overlap(
+            Vec3::ZERO,
+            far_corner + 0.05,
+            0.04,
+            lo,
+            hi
+        ));
+    }
+
+    /// Points on the unit sphere, spread evenly (a Fibonacci lattice).
+    fn surface_points(n: usize) -> impl Iterator<Item = Vec3> {
+        let golden = core::f32::consts::PI * (3.0 - libm::sqrtf(5.0));
+        (0..n).map(move |i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = libm::sqrtf(1.0 - z * z);
+            let a = golden * i as f32;
+            Vec3::new(r * libm::cosf(a), r * libm::sinf(a), z)
+        })
+    }
+
+    #[test]
+    fn every_box_that_holds_a_point_of_the_surface_is_kept() {
+        let points: alloc::vec::Vec<Vec3> = surface_points(4000).collect();
+        // Boxes of many sizes around the sphere, from a fixed sequence.
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        let (mut kept, mut dropped) = (0, 0);
+        for _ in 0..3000 {
+            let c = Vec3::new(next(), next(), next()) * 2.4 - Vec3::splat(1.2);
+            let half = Vec3::new(next(), next(), next()) * 0.3 + Vec3::splat(0.01);
+            let (lo, hi) = (c - half, c + half);
+            let holds = points
+                .iter()
+                .any(|p| p.cmpge(lo).all() && p.cmple(hi).all());
+            let filed = sphere_surface_box_overlap(Vec3::ZERO, 1.0, 0.0, lo, hi);
+            assert!(filed || !holds, "box {lo:?}..{hi:?} holds a surface point");
+            kept += usize::from(filed);
+            dropped += usize::from(!filed);
+        }
+        // The test sees both answers (boxes inside and outside the sphere are dropped).
+        assert!(
+            kept > 500 && dropped > 500,
+            "{kept} kept, {dropped} dropped"
+        );
+    }
 
     #[test]
     fn separates_and_touches() {

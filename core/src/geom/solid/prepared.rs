@@ -9,6 +9,7 @@ use super::mesh;
 use super::shape::{self, Face};
 use super::spans::{combine, Boundary, Span};
 use super::{CsgOp, Shape, SolidNode};
+use crate::accel::octree::SolidExtent;
 use crate::geom::hit::RayHit;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
@@ -120,14 +121,41 @@ pub struct Solids {
 /// test can report, so the box test never drops a hit the test would find.
 const REJECT_MARGIN: f32 = 1e-4;
 
+/// [`REJECT_MARGIN`] for the object with world box `b`, in world units.
+fn reject_margin(b: &Aabb) -> f32 {
+    let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
+    scale * REJECT_MARGIN
+}
+
 /// `b` grown by [`REJECT_MARGIN`].
 fn reject_box(b: &Aabb) -> Aabb {
-    let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
-    let m = Vec3::splat(scale * REJECT_MARGIN);
+    let m = Vec3::splat(reject_margin(b));
     Aabb {
         min: b.min - m,
         max: b.max + m,
     }
+}
+
+/// The world centre and radius of a sphere placed by `placement`, if the placement keeps it a
+/// sphere: its linear part a rotation times one scale, to a millionth (the rest is far inside
+/// [`REJECT_MARGIN`]). `None` for an ellipsoid.
+fn world_sphere(radius: f32, placement: &Placement) -> Option<(Vec3, f32)> {
+    let m = placement.to_world.matrix;
+    let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.to_array().map(f64::from));
+    let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let lengths = cols.map(|c| libm::sqrt(dot(&c, &c)));
+    let longest = lengths[0].max(lengths[1]).max(lengths[2]);
+    let tolerance = 1e-6 * longest;
+    let similar = lengths.iter().all(|&l| longest - l <= tolerance)
+        && [(0, 1), (0, 2), (1, 2)]
+            .iter()
+            .all(|&(i, j)| dot(&cols[i], &cols[j]).abs() <= tolerance * longest);
+    similar.then(|| {
+        (
+            placement.to_world.translation,
+            (f64::from(radius) * longest) as f32,
+        )
+    })
 }
 
 fn finite_box(b: &Aabb) -> bool {
@@ -234,6 +262,37 @@ impl Solids {
     /// World boxes of the objects, `None` for unbounded ones (those stay out of the octree).
     pub fn bounds(&self) -> &[Option<Aabb>] {
         &self.bounds
+    }
+
+    /// How the octree files each object: a lone sphere by its surface, other bounded objects by
+    /// their world box.
+    pub fn extents(&self) -> Vec<SolidExtent> {
+        self.objects
+            .iter()
+            .zip(&self.bounds)
+            .map(|(&root, b)| {
+                let Some(b) = *b else {
+                    return SolidExtent::Unbounded;
+                };
+                let sphere = match self.nodes[root as usize] {
+                    PreparedNode::Leaf {
+                        shape: Shape::Sphere { radius },
+                        placement,
+                        ..
+                    } => world_sphere(radius, &placement),
+                    _ => None,
+                };
+                match sphere {
+                    Some((center, radius)) => SolidExtent::Sphere {
+                        bounds: b,
+                        center,
+                        radius,
+                        margin: reject_margin(&b),
+                    },
+                    None => SolidExtent::Box(b),
+                }
+            })
+            .collect()
     }
 
     /// Number of triangles in the meshes of CSG solids.
