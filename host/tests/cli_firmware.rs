@@ -103,10 +103,13 @@ fn qemu_here() -> Result<bool, Box<dyn Error>> {
     Ok(false)
 }
 
-/// The firmware built without and with a shared secret, and the secret's file.
+/// The firmware built without and with a shared secret, and with a heap too small for the room
+/// (it announces more than the heap can give, so the room's octree runs it out), and the
+/// secret's file.
 struct Firmware {
     plain: PathBuf,
     with_secret: PathBuf,
+    small_heap: PathBuf,
     secret_file: PathBuf,
     _dir: tempfile::TempDir,
 }
@@ -119,12 +122,18 @@ fn firmware() -> Result<&'static Firmware, Box<dyn Error>> {
         let secret_file = dir.path().join("secret");
         std::fs::write(&secret_file, "a board's secret, 32 bytes long.\n")
             .map_err(|e| e.to_string())?;
-        // The build without a secret comes last, so the checkout is left with that one.
-        let with_secret = build(Some(&secret_file), &dir.path().join("with-secret.elf"))?;
-        let plain = build(None, &dir.path().join("plain.elf"))?;
+        // The plain build comes last, so the checkout is left with that one.
+        let with_secret = build(
+            Some(&secret_file),
+            None,
+            &dir.path().join("with-secret.elf"),
+        )?;
+        let small_heap = build(None, Some(3600), &dir.path().join("small-heap.elf"))?;
+        let plain = build(None, None, &dir.path().join("plain.elf"))?;
         Ok(Firmware {
             plain,
             with_secret,
+            small_heap,
             secret_file,
             _dir: dir,
         })
@@ -132,8 +141,9 @@ fn firmware() -> Result<&'static Firmware, Box<dyn Error>> {
     built.as_ref().map_err(|e| e.clone().into())
 }
 
-/// Builds the firmware with `secret` (`STRAHL_FIRMWARE_SECRET_FILE`) and copies it to `to`.
-fn build(secret: Option<&Path>, to: &Path) -> Result<PathBuf, String> {
+/// Builds the firmware with `secret` (`STRAHL_FIRMWARE_SECRET_FILE`) and a heap of `heap_kib`
+/// KiB (`STRAHL_FIRMWARE_HEAP_KIB`, the default without) and copies it to `to`.
+fn build(secret: Option<&Path>, heap_kib: Option<u32>, to: &Path) -> Result<PathBuf, String> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../firmware");
     let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
     let mut command = Command::new(cargo);
@@ -141,9 +151,13 @@ fn build(secret: Option<&Path>, to: &Path) -> Result<PathBuf, String> {
         .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
         .args(["--features", "semihosting", "--manifest-path"])
         .arg(dir.join("Cargo.toml"))
-        .env_remove("STRAHL_FIRMWARE_SECRET_FILE");
+        .env_remove("STRAHL_FIRMWARE_SECRET_FILE")
+        .env_remove("STRAHL_FIRMWARE_HEAP_KIB");
     if let Some(file) = secret {
         command.env("STRAHL_FIRMWARE_SECRET_FILE", file);
+    }
+    if let Some(kib) = heap_kib {
+        command.env("STRAHL_FIRMWARE_HEAP_KIB", kib.to_string());
     }
     let out = command.output().map_err(|e| e.to_string())?;
     if !out.status.success() {
@@ -286,6 +300,46 @@ fn the_board_earns_lines_beside_local_and_tcp_workers() -> TestResult {
         last = r.stderr;
     }
     Err(format!("in no render did all three workers render lines; the last:\n{last}").into())
+}
+
+#[test]
+fn a_board_that_panics_is_dropped_at_once_with_its_message() -> TestResult {
+    if !qemu_here()? {
+        return Ok(());
+    }
+    let board = Board::start(&firmware()?.small_heap)?;
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("never.bmp");
+    let started = Instant::now();
+    // Alone, so the board must take the room and run out of heap building it; `render` waits
+    // 60 s for a silent worker.
+    let r = render(
+        &room(),
+        &out,
+        &[
+            "-w",
+            "64",
+            "-h",
+            "48",
+            "--workers",
+            "0",
+            "--serial",
+            &board.pty,
+        ],
+    )?;
+    let took = started.elapsed();
+    assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("it halted: panicked at") && r.stderr.contains("memory allocation of"),
+        "the master shows the board's panic:\n{}",
+        r.stderr
+    );
+    assert!(
+        took < Duration::from_secs(30),
+        "dropped when it panicked, not after the 60 s worker time-out: {took:?}"
+    );
+    assert!(!out.exists(), "no image");
+    Ok(())
 }
 
 #[test]

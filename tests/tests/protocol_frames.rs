@@ -18,7 +18,9 @@ use strahl_core::scene::camera::{Camera, SeedCamera};
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::{Blend, SceneDesc};
 use strahl_core::wire::error::ProtocolError;
-use strahl_core::wire::frame::{DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent};
+use strahl_core::wire::frame::{
+    encode_into, DroppedFrame, FrameReader, FrameWriter, LinkError, ReadEvent,
+};
 use strahl_core::wire::message::{
     decode_pixels, encode_pixels, Hello, MasterMessage, Refusal, Rejection, WorkerMessage,
 };
@@ -27,8 +29,8 @@ use strahl_core::wire::scene_blob::{
 };
 use strahl_core::wire::{
     frame_len, MAX_CHUNK_LEN, MAX_FRAME_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN,
-    MAX_MASTER_FRAME_LEN, MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PAYLOAD_LEN, MAX_SCENE_LEN,
-    MAX_WIDTH, PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
+    MAX_MASTER_FRAME_LEN, MAX_MASTER_PAYLOAD_LEN, MAX_NAME_LEN, MAX_PANIC_LEN, MAX_PAYLOAD_LEN,
+    MAX_SCENE_LEN, MAX_WIDTH, PIXEL_WIRE_BYTES, PROTOCOL_VERSION,
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -327,6 +329,9 @@ fn worker_samples<'a>(pixels: &'a [u8]) -> Vec<WorkerMessage<'a>> {
         },
         WorkerMessage::FenceAck { seq: 77 },
         WorkerMessage::Dropped { total: 2 },
+        WorkerMessage::Panicked {
+            message: "panicked at src/main.rs:3:5: memory allocation of 1441792 bytes failed",
+        },
     ];
     let refusals = [
         Refusal::SceneTooLarge { limit: 1 << 20 },
@@ -371,6 +376,7 @@ fn worker_variant(m: &WorkerMessage<'_>) -> usize {
         WorkerMessage::FenceAck { .. } => 4,
         WorkerMessage::Dropped { .. } => 5,
         WorkerMessage::Refused { .. } => 6,
+        WorkerMessage::Panicked { .. } => 7,
     }
 }
 
@@ -516,6 +522,40 @@ fn largest_master_messages_fit_a_worker_buffer() {
 // ---------------------------------------------------------------------------------------------
 
 #[test]
+fn a_panic_message_is_framed_without_the_heap_and_bounded() {
+    let text = "é".repeat(MAX_PANIC_LEN / 2);
+    let msg = WorkerMessage::Panicked { message: &text };
+    let mut payload = [0u8; MAX_PANIC_LEN + 16];
+    let mut frame = [0u8; frame_len(MAX_PANIC_LEN + 16)];
+    let framed = encode_into(&msg, &mut payload, &mut frame).expect("fits");
+    let mut writer = FrameWriter::new();
+    assert_eq!(
+        framed,
+        writer.encode(&msg).expect("encodes"),
+        "the same frame either way"
+    );
+    let events = read_all(&mut PieceLink::new(framed.to_vec(), vec![7]), MAX_FRAME_LEN);
+    let frames = frames_of(&events);
+    assert_eq!(WorkerMessage::decode(frames[0]), Ok(msg));
+    // One byte over the limit does not decode; a buffer too small does not encode.
+    let long = "x".repeat(MAX_PANIC_LEN + 1);
+    let framed = writer
+        .encode(&WorkerMessage::Panicked { message: &long })
+        .expect("encodes")
+        .to_vec();
+    let events = read_all(&mut PieceLink::new(framed, vec![9]), MAX_FRAME_LEN);
+    assert_eq!(
+        WorkerMessage::decode(frames_of(&events)[0]),
+        Err(ProtocolError::Decode)
+    );
+    let mut small = [0u8; 32];
+    assert_eq!(
+        encode_into(&msg, &mut small, &mut frame),
+        Err(ProtocolError::Encode)
+    );
+}
+
+#[test]
 fn every_message_variant_round_trips() {
     let chunk: Vec<u8> = (0..=255u8).cycle().take(700).collect();
     let pixels: Vec<u8> = (0..=255u8).cycle().take(24 * PIXEL_WIRE_BYTES).collect();
@@ -552,7 +592,7 @@ fn every_message_variant_round_trips() {
     );
     let frames = frames_of(&events);
     assert_eq!(frames.len(), workers.len(), "{events:?}");
-    let mut seen = [false; 7];
+    let mut seen = [false; 8];
     for (payload, m) in frames.iter().zip(&workers) {
         let got = WorkerMessage::decode(payload).expect("worker message decodes");
         assert_eq!(&got, m);

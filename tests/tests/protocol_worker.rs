@@ -176,6 +176,10 @@ enum Out {
         job: u32,
         reason: Refusal,
     },
+    /// Not sent by the core's loop (only by the firmware's panic handler).
+    Panicked {
+        message: String,
+    },
 }
 
 impl Out {
@@ -228,6 +232,9 @@ impl Out {
             WorkerMessage::FenceAck { seq } => Out::FenceAck { seq },
             WorkerMessage::Dropped { total } => Out::Dropped { total },
             WorkerMessage::Refused { job, reason } => Out::Refused { job, reason },
+            WorkerMessage::Panicked { message } => Out::Panicked {
+                message: message.to_owned(),
+            },
         }
     }
 }

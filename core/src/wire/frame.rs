@@ -180,11 +180,8 @@ impl FrameWriter {
         payload.extend_from_slice(&crc.to_le_bytes());
         self.frame.clear();
         self.frame.resize(frame_len(payload.len() - CRC_LEN), 0);
-        let n = cobs::encode(&payload, &mut self.frame[1..]);
-        self.frame.truncate(n + 2);
-        if let Some(last) = self.frame.last_mut() {
-            *last = 0;
-        }
+        let n = delimit(&payload, &mut self.frame);
+        self.frame.truncate(n);
         self.payload = payload;
         Ok(&self.frame)
     }
@@ -202,6 +199,40 @@ impl FrameWriter {
         let frame = self.encode(msg).map_err(FrameWriteError::Encode)?;
         write_all(link, frame).map_err(FrameWriteError::Link)
     }
+}
+
+/// Encodes `msg` into a frame without allocating: `payload` holds the encoding and its CRC,
+/// `frame` the frame; returns the frame's bytes, delimiters included. For a panic handler, which
+/// cannot count on the heap.
+///
+/// # Errors
+/// [`ProtocolError::Encode`] if the message does not fit `payload` (less [`CRC_LEN`]) or its
+/// frame does not fit `frame`.
+pub fn encode_into<'f, T: Serialize>(
+    msg: &T,
+    payload: &mut [u8],
+    frame: &'f mut [u8],
+) -> Result<&'f [u8], ProtocolError> {
+    let room = payload.len().saturating_sub(CRC_LEN);
+    let len = postcard::to_slice(msg, &mut payload[..room])
+        .map_err(|_| ProtocolError::Encode)?
+        .len();
+    let crc = crc32fast::hash(&payload[..len]);
+    payload[len..len + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
+    if frame.len() < frame_len(len) {
+        return Err(ProtocolError::Encode);
+    }
+    let n = delimit(&payload[..len + CRC_LEN], frame);
+    Ok(&frame[..n])
+}
+
+/// Writes `0x00 | COBS(payload_and_crc) | 0x00` into `frame` (at least [`frame_len`] of the
+/// payload long) and returns the frame's length.
+fn delimit(payload_and_crc: &[u8], frame: &mut [u8]) -> usize {
+    frame[0] = 0;
+    let n = cobs::encode(payload_and_crc, &mut frame[1..]);
+    frame[n + 1] = 0;
+    n + 2
 }
 
 /// Why [`FrameWriter::send`] failed.

@@ -12,8 +12,8 @@ use crate::scene::error::SceneError;
 use crate::wire::auth::{Nonce, Proof};
 use crate::wire::error::ProtocolError;
 use crate::wire::{
-    MAX_CHUNK_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN, MAX_NAME_LEN, MAX_SCENE_LEN, MAX_WIDTH,
-    PIXEL_WIRE_BYTES,
+    MAX_CHUNK_LEN, MAX_LINES_PER_REQUEST, MAX_MASK_LEN, MAX_NAME_LEN, MAX_PANIC_LEN, MAX_SCENE_LEN,
+    MAX_WIDTH, PIXEL_WIRE_BYTES,
 };
 use serde::{Deserialize, Serialize};
 
@@ -211,6 +211,12 @@ pub enum WorkerMessage<'a> {
         /// Why.
         reason: Refusal,
     },
+    /// The worker panicked and halts: its panic message, at most [`MAX_PANIC_LEN`] bytes, sent
+    /// by a panic handler that can still write to the link (the firmware's). Nothing follows it.
+    Panicked {
+        /// The panic message.
+        message: &'a str,
+    },
 }
 
 impl<'a> MasterMessage<'a> {
@@ -270,6 +276,11 @@ impl<'a> WorkerMessage<'a> {
                     || pixels.len() > MAX_WIDTH as usize * PIXEL_WIRE_BYTES
                 {
                     return Err(ProtocolError::BadPixels);
+                }
+            }
+            WorkerMessage::Panicked { message } => {
+                if message.len() > MAX_PANIC_LEN {
+                    return Err(ProtocolError::Decode);
                 }
             }
             WorkerMessage::NeedScene { .. }

@@ -31,7 +31,10 @@ pub mod scene_blob;
 /// talk: the worker answers with its own `Hello` (so the master can report both versions) and
 /// ends the session. `Hello` stays the first variant of both message enums, with the version as
 /// its first field, in every version.
-pub const PROTOCOL_VERSION: u32 = 6;
+pub const PROTOCOL_VERSION: u32 = 7;
+
+/// The most bytes of a worker's last words ([`message::WorkerMessage::Panicked`]).
+pub const MAX_PANIC_LEN: usize = 200;
 
 /// The widest image line a line result carries, in pixels (the scene's own limit).
 pub const MAX_WIDTH: u32 = crate::scene::MAX_IMAGE_SIDE;

@@ -69,6 +69,9 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
         WorkerMessage::FenceAck { seq } => Incoming::FenceAck { seq },
         WorkerMessage::Dropped { .. } => Incoming::Dropped,
         WorkerMessage::Refused { job, reason } => Incoming::Refused { job, reason },
+        WorkerMessage::Panicked { message } => Incoming::Panicked {
+            message: message.to_string(),
+        },
     })
 }
 

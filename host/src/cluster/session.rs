@@ -20,6 +20,7 @@ use crate::cluster::report::{Activity, WorkerReport, WorkerState};
 use crate::cluster::schedule::{LineScheduler, Task};
 use crate::cluster::verify::{Held, Verifier};
 use crate::util::secret::random_nonce;
+use crate::util::text::printable;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -82,6 +83,9 @@ pub(crate) enum Incoming {
     Refused {
         job: u32,
         reason: Refusal,
+    },
+    Panicked {
+        message: String,
     },
 }
 
@@ -509,6 +513,10 @@ impl<'a> Session<'a> {
                 let reason = "it refused this master: it requires the shared secret \
                               (--secret-file), and this master has another or none";
                 self.lose(id, reason.to_string(), wire);
+            }
+            Incoming::Panicked { message } => {
+                let reason = format!("it halted: {}", printable(&message.replace('\n', " ")));
+                self.lose(id, reason, wire);
             }
             Incoming::Refused { job: j, reason } if j == job => {
                 let reason = format!("it refused the job: {}", refusal_text(reason));
@@ -1436,6 +1444,29 @@ mod tests {
             let reason = dropped_for(rays).unwrap_or_default();
             assert!(reason.contains(expected), "{reason}");
         }
+    }
+
+    #[test]
+    fn a_worker_that_panicked_is_dropped_at_once_with_its_message() {
+        let job = job(2, 3, None);
+        let opts = MasterOptions::default();
+        let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker(&mut s, &job, &mut wire);
+        s.fill_windows(Instant::now(), &mut wire);
+        let last_words = Incoming::Panicked {
+            message: "memory allocation of 1441792 bytes failed\u{1b}[2J".to_string(),
+        };
+        s.handle(Event::Message(0, last_words), &mut wire);
+        assert_eq!(wire.cut, [0]);
+        let Err(ClusterError::AllWorkersLost { workers, .. }) = s.into_image() else {
+            panic!("the only worker is lost");
+        };
+        let reason = workers[0].lost.as_deref().unwrap_or_default();
+        assert_eq!(
+            reason,
+            "it halted: memory allocation of 1441792 bytes failed\\u{1b}[2J"
+        );
     }
 
     #[test]
