@@ -1,6 +1,7 @@
 //! The octree build stays within its memory budget and still splits where splitting pays.
 
-use strahl_core::accel::octree::{Octree, OctreeParams, SolidExtent, BYTES_PER_PRIMITIVE};
+use strahl_core::accel::octree::{Octree, OctreeParams, BYTES_PER_PRIMITIVE};
+use strahl_core::geom::solid::extent::SolidExtent;
 use strahl_core::math::aabb::Aabb;
 use strahl_core::scene::mesh::Rng;
 use strahl_core_tests::meshes::random_soup;

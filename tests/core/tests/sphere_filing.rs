@@ -5,9 +5,10 @@
 //! and an ellipsoid (filed by its box).
 
 use glam::Vec3;
-use strahl_core::accel::octree::{Octree, OctreeParams, SolidExtent};
+use strahl_core::accel::octree::{Octree, OctreeParams};
 use strahl_core::accel::work::QueryWork;
 use strahl_core::geom::hit::closer;
+use strahl_core::geom::solid::extent::SolidExtent;
 use strahl_core::geom::solid::prepared::{SolidHit, Solids, SpanScratch};
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::ray::Ray;

@@ -14,7 +14,8 @@
 //! order depends only on the scene, so every machine builds the same tree.
 
 use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
-use super::{Node, Octree, OctreeParams, OctreeStats, SolidExtent, INTERIOR, MAX_DEPTH_LIMIT};
+use super::{Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
+use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;

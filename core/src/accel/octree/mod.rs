@@ -33,39 +33,6 @@ use glam::Vec3;
 /// The deepest octree [`OctreeParams::max_depth`] may ask for (bounds the traversal stack).
 pub const MAX_DEPTH_LIMIT: u32 = 20;
 
-/// How a solid is filed in the octree (primitives after the triangles, see
-/// [`Octree::build_mixed`]).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum SolidExtent {
-    /// No bound (a plane, say): it stays out of the tree.
-    Unbounded,
-    /// Filed in every cell its world box touches.
-    Box(Aabb),
-    /// A sphere standing alone: filed in every cell its surface comes within `margin` of, which
-    /// leaves out the cells inside it; `bounds` is its world box.
-    Sphere {
-        /// World box.
-        bounds: Aabb,
-        /// Centre, world space.
-        center: Vec3,
-        /// Radius, world space.
-        radius: f32,
-        /// How far from the surface a cell still holds it: above every rounding of the sphere's
-        /// placement and of its hits.
-        margin: f32,
-    },
-}
-
-impl SolidExtent {
-    /// The world box, `None` for an unbounded solid.
-    pub fn bounds(&self) -> Option<Aabb> {
-        match *self {
-            SolidExtent::Unbounded => None,
-            SolidExtent::Box(b) | SolidExtent::Sphere { bounds: b, .. } => Some(b),
-        }
-    }
-}
-
 /// Octree build limits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct OctreeParams {

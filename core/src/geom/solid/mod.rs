@@ -12,7 +12,10 @@
 //!   reports the sub-shape actually hit, and on `A − B` the surface from `B` has its normal turned).
 //! - [`prepared`] is the render-time form: placements inverted once, world bounds, and the queries
 //!   the octree and the shader use.
+//! - [`extent`] says where an object can be hit (nowhere bounded, a box, or a sphere's surface),
+//!   which is what the octree files it by.
 
+pub mod extent;
 pub mod mesh;
 pub mod prepared;
 pub mod shape;

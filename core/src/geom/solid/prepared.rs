@@ -5,11 +5,11 @@
 //! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
+use super::extent::SolidExtent;
 use super::mesh;
 use super::shape::{self, Face};
 use super::spans::{combine, Boundary, Span};
 use super::{CsgOp, Shape, SolidNode};
-use crate::accel::octree::SolidExtent;
 use crate::geom::hit::RayHit;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
