@@ -1379,25 +1379,16 @@ mod tests {
         assert!(pixels[2..].iter().all(|p| *p == Pixel([7; 3])));
     }
 
-    /// Worker 0's first line, with `rays` for counts: the reason it was dropped for, if it was.
-    fn dropped_for(rays: RayCounts) -> Option<String> {
+    /// Worker 0, greeted, loaded and asked for lines, then sent what `msg` makes of the job: the
+    /// reason it was dropped for, if it was (and its link cut).
+    fn dropped_after(msg: impl FnOnce(&ClusterJob) -> Incoming) -> Option<String> {
         let job = job(2, 3, None);
         let opts = MasterOptions::default();
         let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
         let mut wire = Recorder::default();
         ready_worker(&mut s, &job, &mut wire);
         s.fill_windows(Instant::now(), &mut wire);
-        let Event::Message(_, Incoming::Line { pixels, .. }) = line(&job, 0, false, 5) else {
-            unreachable!("line() makes a line result")
-        };
-        let forged = Incoming::Line {
-            job: job.id,
-            line: 0,
-            refined: false,
-            rays,
-            pixels,
-        };
-        s.handle(Event::Message(0, forged), &mut wire);
+        s.handle(Event::Message(0, msg(&job)), &mut wire);
         if wire.cut.is_empty() {
             return None;
         }
@@ -1406,6 +1397,22 @@ mod tests {
             panic!("the only worker is lost");
         };
         workers[0].lost.clone()
+    }
+
+    /// Worker 0's first line, with `rays` for counts: the reason it was dropped for, if it was.
+    fn dropped_for(rays: RayCounts) -> Option<String> {
+        dropped_after(|job| {
+            let Event::Message(_, Incoming::Line { pixels, .. }) = line(job, 0, false, 5) else {
+                unreachable!("line() makes a line result")
+            };
+            Incoming::Line {
+                job: job.id,
+                line: 0,
+                refined: false,
+                rays,
+                pixels,
+            }
+        })
     }
 
     #[test]
@@ -1448,24 +1455,12 @@ mod tests {
 
     #[test]
     fn a_worker_that_panicked_is_dropped_at_once_with_its_message() {
-        let job = job(2, 3, None);
-        let opts = MasterOptions::default();
-        let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
-        let mut wire = Recorder::default();
-        ready_worker(&mut s, &job, &mut wire);
-        s.fill_windows(Instant::now(), &mut wire);
-        let last_words = Incoming::Panicked {
+        let reason = dropped_after(|_| Incoming::Panicked {
             message: "memory allocation of 1441792 bytes failed\u{1b}[2J".to_string(),
-        };
-        s.handle(Event::Message(0, last_words), &mut wire);
-        assert_eq!(wire.cut, [0]);
-        let Err(ClusterError::AllWorkersLost { workers, .. }) = s.into_image() else {
-            panic!("the only worker is lost");
-        };
-        let reason = workers[0].lost.as_deref().unwrap_or_default();
+        });
         assert_eq!(
-            reason,
-            "it halted: memory allocation of 1441792 bytes failed\\u{1b}[2J"
+            reason.as_deref(),
+            Some("it halted: memory allocation of 1441792 bytes failed\\u{1b}[2J")
         );
     }
 
