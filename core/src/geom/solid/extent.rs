@@ -20,8 +20,11 @@ pub enum SolidExtent {
         center: Vec3,
         /// Radius, world space.
         radius: f32,
-        /// How far from the surface a cell still holds it: above every rounding of the sphere's
-        /// placement and of its hits.
+        /// How far from the surface a cell still holds it, on top of the growth every cell gets
+        /// for every primitive (the scene's magnitude times `gamma(16)`): the reject boxes'
+        /// margin, 1e-4 of the object's size and distance from the origin, so the centre and
+        /// radius read off a placement that is a rotation and scale only to a millionth still
+        /// bound the surface its test sees.
         margin: f32,
     },
 }
