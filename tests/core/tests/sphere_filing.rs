@@ -1,8 +1,8 @@
 //! Spheres filed in the octree by their surface (not their box) are found exactly as testing
 //! every sphere finds them: the same sphere and the bit-identical `t`, for closest hits and for
-//! shadow-style any-hit queries, from rays outside (near and far), inside and on the spheres: nested and
-//! overlapping spheres, a cluster of tiny ones inside a big one, rotated and scaled placements,
-//! and an ellipsoid (filed by its box).
+//! shadow-style any-hit queries, from rays outside (near and far), inside and on the spheres:
+//! nested and overlapping spheres, a cluster of tiny ones inside a big one, rotated and scaled
+//! placements, and an ellipsoid (filed by its box).
 
 use glam::Vec3;
 use strahl_core::accel::octree::{Octree, OctreeParams};
