@@ -42,6 +42,17 @@ fn view_url(p: &Proc) -> Result<String, Box<dyn Error>> {
         .to_string())
 }
 
+/// The address a listening master printed: `listening for workers on ADDR`.
+fn workers_address(p: &Proc) -> Result<String, Box<dyn Error>> {
+    const MARK: &str = "listening for workers on ";
+    let (found, text) = p.wait_stderr(Duration::from_secs(30), |t| t.contains(MARK));
+    let line = text.lines().find(|l| l.contains(MARK));
+    match (found, line) {
+        (true, Some(line)) => Ok(line.rsplit(' ').next().ok_or("no address")?.to_string()),
+        _ => Err(format!("`{}` printed no address for workers:\n{text}", p.what).into()),
+    }
+}
+
 /// The 8-bit RGB pixels of the image file at `path`.
 fn file_rgb(path: &Path) -> Result<(u32, u32, Vec<u8>), Box<dyn Error>> {
     let img = image::open(path)?.to_rgb8();
@@ -92,24 +103,39 @@ fn render_view_shows_the_image_as_it_fills_and_the_canvas_equals_the_file() -> T
     let Some(b) = browser()? else { return Ok(()) };
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("room.bmp");
-    // Seconds of rendering on one worker: the page connects while lines still arrive.
+    // The master waits for a worker to dial in, so the page connects before any line is
+    // rendered however slow the browser is to start; the worker is started once the page has
+    // seen the render unfinished.
     let args = support::render_args(
         support::LARGE,
         &out,
-        &["-m", "2", "--workers", "1", "--view", "127.0.0.1:0"],
+        &[
+            "-m",
+            "2",
+            "--workers",
+            "0",
+            "--listen",
+            "127.0.0.1:0",
+            "--view",
+            "127.0.0.1:0",
+        ],
     );
     let mut p = Proc::spawn(&args)?;
     let url = view_url(&p)?;
+    let master = workers_address(&p)?;
     b.open(&url)?;
-    // Progress below the total, seen by the page: it watched the render fill in.
-    b.run("window.partial = false; setInterval(() => { const p = window.strahl.progress; if (p && p.done < p.total) window.partial = true; }, 20); return true;")?;
+    // Progress below the total, seen by the page before the worker joins, and again with some
+    // lines in: it watched the render fill in.
+    b.run("window.partial = false; window.midway = false; setInterval(() => { const p = window.strahl.progress; if (p && p.done < p.total) { window.partial = true; if (p.done > 0) window.midway = true; } }, 20); return true;")?;
+    b.wait_for("return window.partial === true;", PAGE_TIMEOUT)?;
+    let _worker = Proc::spawn(&["worker", "--connect", &master, "--threads", "1"])?;
     wait_done(&b, 1)?;
     assert_canvas_is_file(&b, &out)?;
-    let seen = b.run("return [window.partial || window.strahl.linesDrawn < window.strahl.height, document.querySelectorAll('#worker-rows tr').length, document.getElementById('lines').textContent, document.getElementById('download').hidden];")?;
+    let seen = b.run("return [window.midway, document.querySelectorAll('#worker-rows tr').length, document.getElementById('lines').textContent, document.getElementById('download').hidden];")?;
     assert_eq!(
         seen[0],
         serde_json::json!(true),
-        "the page never saw the render unfinished: {seen}"
+        "the page never saw the render part-way: {seen}"
     );
     assert_eq!(
         seen[1],
