@@ -247,10 +247,10 @@ impl Octree {
 
 /// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) that
 /// the ray crosses, farthest first, so the nearest is popped next; returns the new stack top.
-/// The pieces of the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's crossings `c` of
-/// the centre planes and widened by [`WIDEN`] around each. They are written straight into the
-/// stack, field by field: a piece array returned by value and copied (an earlier version) made
-/// the processor wait for its stores on every interior cell.
+/// The pieces of the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's
+/// crossings `c` of the centre planes and widened by [`WIDEN`] around each. They are written
+/// straight into the stack, field by field: a piece array returned by value and copied (an
+/// earlier version) made the processor wait for its stores on every interior cell.
 #[inline(always)]
 fn push_children(
     ray: &Ray,
