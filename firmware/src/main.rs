@@ -5,8 +5,10 @@
 //! master refuses it a scene that would not fit and gives its lines to the others. A shared
 //! secret is built in (`STRAHL_FIRMWARE_SECRET_FILE`), and the handshake's nonces come from
 //! [`entropy`]. A panic sends its message to the master as the protocol's `Panicked` frame,
-//! built without the heap (the master drops the worker at once and shows why), and halts. Built for QEMU's `mps2-an386` (`memory.x`, UART0 at `0x4000_4000`); README,
-//! "A microcontroller in the cluster", says how to build it for a real board of the family.
+//! built without the heap (the master drops the worker at once and shows why), and halts.
+//! Built for QEMU's `mps2-an386` (`memory.x`, UART0 at `0x4000_4000`, a heap of
+//! `STRAHL_FIRMWARE_HEAP_KIB`); README, "A microcontroller in the cluster", says how to build
+//! it for a real board of the family.
 #![no_std]
 #![no_main]
 
