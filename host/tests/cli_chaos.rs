@@ -4,6 +4,10 @@
 //! wrong pixels, and the render runs with `--verify 1`. The image must be complete and byte for
 //! byte the `--workers 1` image, and the table must name what happened to each worker.
 //!
+//! The render is [`HUGE`]: the stopped worker must stay silent for the whole `--worker-timeout`
+//! while the image is still unfinished. On a smaller image the others finish its lines as
+//! end-game copies before the time-out, and the stop goes unnoticed, as it should.
+//!
 //! The garbage sender and the liar are threads of this test behind their own TCP ports (the
 //! liar runs the core's worker session with the simulated cluster's lying outbox, which changes
 //! one pixel per line); the others are `strahl worker` processes.
@@ -86,7 +90,7 @@ fn a_render_survives_kills_a_stop_garbage_and_a_liar_under_verify() -> TestResul
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let mut master = Proc::spawn(&render_args(
-        LARGE,
+        HUGE,
         &out,
         &[
             "--workers",
@@ -117,7 +121,7 @@ fn a_render_survives_kills_a_stop_garbage_and_a_liar_under_verify() -> TestResul
     kill_mid_render(&mut master, &mut [&mut killed])?;
     let r = finish(master)?;
     r.assert_success();
-    assert_reference_image(&out, LARGE)?;
+    assert_reference_image(&out, HUGE)?;
     assert_ok(&r, "good-a")?;
     assert_ok(&r, "good-b")?;
     assert_lost(&r, "killed")?;
