@@ -3,7 +3,11 @@
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a sphere standing alone by where
-//! its surface is, another solid by its world bounding box.
+//! its surface is, another solid by its world bounding box. A primitive whose box lies on one
+//! side of a centre plane, touching it or in it, is filed on that side only (exact comparisons,
+//! no margin): its points on the plane belong to that side's closed cells as well, and the walk
+//! visits the cells on both sides of every point where a ray meets a centre plane. Without this,
+//! meshes on a power-of-two lattice (SPD's tetra) filed every face in up to eight cells.
 //!
 //! A leaf that may be split is queued at the most its split could gain; when it comes first it
 //! is appraised (its children's lists computed, and the split's gain in expected tests per ray
@@ -60,7 +64,7 @@ struct Builder<'a> {
     solids: &'a [SolidExtent],
     params: OctreeParams,
     /// How far every cell is grown before the overlap test: the rounding error bound of the test
-    /// at the scene's magnitude, so a triangle on a cell boundary is filed on both sides.
+    /// at the scene's magnitude, so the test never misses a primitive that reaches into a cell.
     margin: f32,
     nodes: Vec<Node>,
     /// Per node: its primitives while it is a leaf (`None` once it is split).
@@ -362,14 +366,16 @@ impl Builder<'_> {
         /// Per axis, the children on its upper side (bit `a` of the child's index set).
         const UPPER: [u8; 3] = [0xAA, 0xCC, 0xF0];
         let b = &self.boxes[t];
-        let m = self.margin;
-        // The children the primitive's box reaches: per axis the halves it reaches (boundaries
-        // count on both), intersected over the axes.
+        // The children that hold the primitive's points, per axis the halves (exact comparisons
+        // of its box, no rounding), intersected over the axes. A primitive on one side of a
+        // centre plane, touching it or lying in it, goes to that side only: its points on the
+        // plane are in that side's closed cells too, and the walk visits the cells on both
+        // sides of every point of a ray's path that lies on a centre plane (see `traverse.rs`).
         let mut candidates = 0xFFu8;
         let mut straddles = false;
         for a in 0..3 {
-            let lo = b.min[a] <= mid[a] + m;
-            let hi = b.max[a] >= mid[a] - m;
+            let lo = b.min[a] < mid[a];
+            let hi = b.max[a] > mid[a] || !lo;
             straddles |= lo && hi;
             candidates &= match (lo, hi) {
                 (true, true) => 0xFF,
@@ -425,13 +431,9 @@ impl Builder<'_> {
 /// The box of child `c` of `cell` split at `mid`: bit `a` of `c` selects the upper half on axis `a`.
 #[inline]
 pub(super) fn child_box(cell: &Aabb, mid: Vec3, c: usize) -> Aabb {
-    let mut b = *cell;
-    for a in 0..3 {
-        if (c >> a) & 1 == 1 {
-            b.min[a] = mid[a];
-        } else {
-            b.max[a] = mid[a];
-        }
+    let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+    Aabb {
+        min: Vec3::select(upper, mid, cell.min),
+        max: Vec3::select(upper, cell.max, mid),
     }
-    b
 }

@@ -1,9 +1,13 @@
-//! Octree traversal: the cells a ray crosses, nearest first, with a fixed-size stack.
+//! Octree traversal: the cells a ray crosses or touches, nearest first, with a fixed-size stack.
 //!
 //! A cell is entered with the ray-parameter interval `[t0, t1]` in which the ray is inside it. The
 //! three centre planes cut that interval into at most four pieces, one per child crossed; pieces
-//! share their computed plane-crossing values, so they leave no gap, and each is widened by the
-//! rounding error bound of that crossing so a ray near a plane visits both cells. Stack entries
+//! share their computed plane-crossing values, so they leave no gap, and each is widened by
+//! twice the rounding error bound of that crossing so a ray near a plane visits both cells.
+//! The build files a primitive that touches a centre plane from one side on that side only, so
+//! the walk also visits every cell a ray touches at a single point: around crossings too close
+//! to order (a ray through a cell's edge or corner) it visits the cells of every order, and a
+//! ray lying in a centre plane visits both sides of it (see [`push_children`]). Stack entries
 //! hold no box: a cell's box is cut from its parent's when it is entered, with the build's own
 //! `child_box`, so the walk's cells are the build's to the bit.
 
@@ -21,8 +25,14 @@ use glam::Vec3;
 /// plane: twice the error bound of the three roundings in a crossing `(mid − o) · (1/d)`.
 const WIDEN: f32 = 2.0 * gamma(3);
 
-/// Each level pushes at most four cells and pops one.
-const STACK_SIZE: usize = 3 * MAX_DEPTH_LIMIT as usize + 2;
+/// The stack entries a walk of a tree `depth` deep needs: each level pushes at most eight cells
+/// (the four on the ray's path and, where crossings tie, the others around them) and pops one.
+const fn stack_size(depth: u32) -> usize {
+    7 * depth as usize + 2
+}
+
+/// Trees at most this deep (most scenes') are walked with a smaller stack and path.
+const SHALLOW_DEPTH: u32 = 10;
 
 /// The primitives one query has tested lately, direct-mapped by index. A primitive filed in
 /// several cells the ray crosses is then tested once instead of once per cell, as long as no
@@ -64,11 +74,11 @@ struct Entry {
 /// The box of the interior cell the walk entered last at each depth. The walk is depth first, so
 /// the parent of a cell popped at depth `d` is the cell entered last at depth `d − 1`: its box
 /// is `boxes[d − 1]`, and the child's is cut from it exactly as the build cut it.
-struct Path {
-    boxes: [Aabb; MAX_DEPTH_LIMIT as usize + 1],
+struct Path<const P: usize> {
+    boxes: [Aabb; P],
 }
 
-impl Path {
+impl<const P: usize> Path<P> {
     /// The box of the cell `e`, an interior node, which the walk enters now (remembered for its
     /// children).
     #[inline(always)]
@@ -201,19 +211,39 @@ impl Octree {
     /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's triangle
     /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
     /// Returns how many cells it entered.
-    fn walk(&self, ray: &Ray, t_max: f32, mut leaf: impl FnMut(&[u32]) -> f32) -> u64 {
+    fn walk(&self, ray: &Ray, t_max: f32, leaf: impl FnMut(&[u32]) -> f32) -> u64 {
+        // Every query clears its stack and path: a tree no deeper than most clears less.
+        if self.stats.depth <= SHALLOW_DEPTH {
+            self.walk_in::<{ stack_size(SHALLOW_DEPTH) }, { SHALLOW_DEPTH as usize + 1 }>(
+                ray, t_max, leaf,
+            )
+        } else {
+            self.walk_in::<{ stack_size(MAX_DEPTH_LIMIT) }, { MAX_DEPTH_LIMIT as usize + 1 }>(
+                ray, t_max, leaf,
+            )
+        }
+    }
+
+    /// [`Octree::walk`] with a stack of `S` entries and a path of `P` boxes, enough for a tree
+    /// `P − 1` deep (`S` = [`stack_size`]`(P − 1)`).
+    fn walk_in<const S: usize, const P: usize>(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut leaf: impl FnMut(&[u32]) -> f32,
+    ) -> u64 {
         let inv_dir = Vec3::ONE / ray.dir;
         let Some((t0, t1)) = self.bounds.intersect(ray, inv_dir, t_max) else {
             return 0;
         };
         let mut cells = 0u64;
         // All-zero entries and boxes: the compiler clears them with one fill each.
-        let mut stack = [Entry::default(); STACK_SIZE];
+        let mut stack = [Entry::default(); S];
         let mut path = Path {
             boxes: [Aabb {
                 min: Vec3::ZERO,
                 max: Vec3::ZERO,
-            }; MAX_DEPTH_LIMIT as usize + 1],
+            }; P],
         };
         stack[0] = Entry {
             t0: t0 * (1.0 - WIDEN),
@@ -246,30 +276,53 @@ impl Octree {
 }
 
 /// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) that
-/// the ray crosses, farthest first, so the nearest is popped next; returns the new stack top.
-/// The pieces of the entry's interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's
-/// crossings `c` of the centre planes and widened by [`WIDEN`] around each. They are written
-/// straight into the stack, field by field: a piece array returned by value and copied (an
-/// earlier version) made the processor wait for its stores on every interior cell.
+/// the ray may touch, farthest first along the ray, so the nearest is popped next; returns the
+/// new stack top.
+///
+/// The build files a primitive that touches a centre plane from one side on that side only (see
+/// `build.rs`), so the walk must reach every child the ray touches, even only at a point. The
+/// pieces of the entry's
+/// interval `[t0, c1], [c1, c2], ..., [cn, t1]` are cut at the ray's computed crossings `c` of
+/// the centre planes and widened by [`WIDEN`], twice the crossing's rounding error bound, around
+/// each:
+/// - where two crossings are within the bound of each other, the true order is unknown, and the
+///   children reached by crossing those planes in another order are pushed as well;
+/// - a ray in a centre plane (zero direction component, origin on it) touches both sides.
+///
+/// Pieces are written straight into the stack, field by field: a piece array returned by value
+/// and copied (an earlier version) made the processor wait for its stores on every interior cell.
 #[inline(always)]
-fn push_children(
+fn push_children<const S: usize>(
     ray: &Ray,
     inv_dir: Vec3,
     e: &Entry,
     node: super::Node,
     mid: Vec3,
-    stack: &mut [Entry; STACK_SIZE],
-    mut top: usize,
+    stack: &mut [Entry; S],
+    top: usize,
 ) -> usize {
-    // Where the ray crosses each centre plane, and on which side it starts.
-    let mut cross = [f32::INFINITY; 3];
+    // Per axis, where the ray crosses the centre plane, and whether it starts on the upper side.
+    // NaN where the ray is parallel to the plane: no crossing, never an event below.
+    let mut cross = [f32::NAN; 3];
     let mut child = 0usize;
+    // Axes whose centre plane the ray lies in: it touches both sides all along.
+    let mut in_plane = 0usize;
+    // Plain arrays: indexing a vector by a variable axis compiles to a three-way match.
+    let (origin, dir, inv_dir, mid) = (
+        ray.origin.to_array(),
+        ray.dir.to_array(),
+        inv_dir.to_array(),
+        mid.to_array(),
+    );
     for a in 0..3 {
-        let d = ray.dir[a];
+        let d = dir[a];
         let upper = if d == 0.0 {
-            ray.origin[a] >= mid[a]
+            in_plane |= usize::from(origin[a] == mid[a]) << a;
+            origin[a] >= mid[a]
         } else {
-            cross[a] = (mid[a] - ray.origin[a]) * inv_dir[a];
+            // An origin on the plane crosses it at 0, also where `1/d` overflows (0 · ∞).
+            let gap = mid[a] - origin[a];
+            cross[a] = if gap == 0.0 { 0.0 } else { gap * inv_dir[a] };
             if d > 0.0 {
                 e.t0 >= cross[a]
             } else {
@@ -278,7 +331,9 @@ fn push_children(
         };
         child |= (upper as usize) << a;
     }
-    // Plane crossings inside the interval, in ray order.
+    // Plane crossings inside the interval, in ray order. The interval's ends are widened by
+    // twice a crossing's error bound, so a crossing truly inside is computed inside: whether
+    // the ray starts on the upper side is never decided by a rounded crossing.
     let mut events = [(f32::INFINITY, 0usize); 3];
     let mut n = 0;
     for (a, &c) in cross.iter().enumerate() {
@@ -288,32 +343,179 @@ fn push_children(
         }
     }
     sort3(&mut events);
+    if in_plane != 0 {
+        let (t0, t1, depth) = (e.t0, e.t1, e.depth + 1);
+        return push_both_sides(
+            t0,
+            t1,
+            depth,
+            node,
+            (child, in_plane),
+            &events[..n],
+            stack,
+            top,
+        );
+    }
+    push_path(
+        (e.t0, e.t1, e.depth + 1),
+        node,
+        child,
+        (&events, n),
+        stack,
+        top,
+    )
+}
+
+/// Pushes the children (cells at `depth`) along the ray's path through `[t0, t1]` from `child`
+/// (the one it starts in), cutting at `events` (the first `n` of them, in ray order), and those
+/// around crossings that tie; returns the new top. The entry's fields come as values: an entry
+/// passed whole is copied through memory, and its 16-byte load then waits on the narrower
+/// stores that wrote it.
+#[inline(always)]
+fn push_path<const S: usize>(
+    (t0, t1, depth): (f32, f32, u16),
+    node: super::Node,
+    mut child: usize,
+    (events, n): (&[(f32, usize); 3], usize),
+    stack: &mut [Entry; S],
+    mut top: usize,
+) -> usize {
+    let tied = |k: usize| tie(events[k].0, events[k + 1].0);
+    if n >= 2 && (tied(0) || (n == 3 && tied(1))) {
+        top = push_unordered(depth, node, child, &events[..n], stack, top);
+    }
     // The last piece's child has crossed every plane; walk back from it.
     for &(_, a) in &events[..n] {
         child ^= 1 << a;
     }
-    let mut end = e.t1;
+    let mut end = t1;
     for k in (0..=n).rev() {
         let start = if k == 0 {
-            e.t0
+            t0
         } else {
             events[k - 1].0 * (1.0 - WIDEN)
         };
-        if node.child_occupied(child) {
-            stack[top] = Entry {
-                node: node.first + child as u32,
-                t0: start,
-                t1: end,
-                depth: e.depth + 1,
-                child: child as u16,
-            };
-            top += 1;
-        }
+        top = push_child(depth, node, child, (start, end), stack, top);
         if k > 0 {
             let (c, a) = events[k - 1];
             child ^= 1 << a;
             end = c * (1.0 + WIDEN);
         }
+    }
+    top
+}
+
+/// [`push_path`] for a ray that lies in the centre planes of the axes `in_plane`: once from each
+/// child on either side of those planes. Rare (a ray along a cell face), so out of line.
+#[cold]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)] // t0 and t1 apart: as a pair they are loaded as one 8-byte word
+fn push_both_sides<const S: usize>(
+    t0: f32,
+    t1: f32,
+    depth: u16,
+    node: super::Node,
+    (child, in_plane): (usize, usize),
+    events: &[(f32, usize)],
+    stack: &mut [Entry; S],
+    mut top: usize,
+) -> usize {
+    let mut all = [(f32::INFINITY, 0usize); 3];
+    all[..events.len()].copy_from_slice(events);
+    let mut side = in_plane;
+    loop {
+        top = push_path(
+            (t0, t1, depth),
+            node,
+            child ^ side,
+            (&all, events.len()),
+            stack,
+            top,
+        );
+        if side == 0 {
+            return top;
+        }
+        side = (side - 1) & in_plane;
+    }
+}
+
+/// True if crossings `c` and `next` (`c ≤ next`) are too close to tell which the ray meets
+/// first: their widened values overlap.
+#[inline(always)]
+fn tie(c: f32, next: f32) -> bool {
+    next * (1.0 - WIDEN) <= c * (1.0 + WIDEN)
+}
+
+/// Pushes child `c` of `node` (a cell at `depth`) over the ray interval `t` if it is occupied;
+/// returns the new top.
+#[inline(always)]
+fn push_child<const S: usize>(
+    depth: u16,
+    node: super::Node,
+    c: usize,
+    (t0, t1): (f32, f32),
+    stack: &mut [Entry; S],
+    top: usize,
+) -> usize {
+    if !node.child_occupied(c) {
+        return top;
+    }
+    stack[top] = Entry {
+        node: node.first + c as u32,
+        t0,
+        t1,
+        depth,
+        child: c as u16,
+    };
+    top + 1
+}
+
+/// Pushes the children off the ray's computed path that it may still touch: within each run of
+/// crossings (`events`, in ray order, starting from `child`) whose widened values overlap, every
+/// child reached by crossing a subset of the run's planes that is not the run's own prefix,
+/// over the run's widened span. Such runs are rare (rays through cell edges and corners), so
+/// these cells go below the path's on the stack.
+#[cold]
+#[inline(never)]
+fn push_unordered<const S: usize>(
+    depth: u16,
+    node: super::Node,
+    mut child: usize,
+    events: &[(f32, usize)],
+    stack: &mut [Entry; S],
+    mut top: usize,
+) -> usize {
+    let mut i = 0;
+    while i < events.len() {
+        let mut j = i;
+        while j + 1 < events.len() && tie(events[j].0, events[j + 1].0) {
+            j += 1;
+        }
+        if j > i {
+            let run: usize = events[i..=j].iter().fold(0, |m, &(_, a)| m | 1 << a);
+            let span = (events[i].0 * (1.0 - WIDEN), events[j].0 * (1.0 + WIDEN));
+            let mut on_path = [0usize; 4];
+            let mut flips = 0;
+            for (k, &(_, a)) in events[i..=j].iter().enumerate() {
+                flips |= 1 << a;
+                on_path[k + 1] = flips;
+            }
+            // Every subset of the run's axes (bit masks within `run`).
+            let mut subset = run;
+            loop {
+                if !on_path[..=j - i + 1].contains(&subset) {
+                    top = push_child(depth, node, child ^ subset, span, stack, top);
+                }
+                if subset == 0 {
+                    break;
+                }
+                subset = (subset - 1) & run;
+            }
+        }
+        for &(_, a) in &events[i..=j] {
+            child ^= 1 << a;
+        }
+        i = j + 1;
     }
     top
 }
