@@ -141,3 +141,67 @@ fn an_origin_on_a_centre_plane_with_a_subnormal_direction_finds_the_brute_force_
     }
     assert!(hits >= 60, "{hits} hits");
 }
+
+#[test]
+fn a_solid_touching_a_centre_plane_is_found_where_its_test_reaches_past_its_box() {
+    // Solids in small boxes on a grid of x = 0..32 whose boxes end exactly on the root's centre
+    // plane x = 16, from below. A solid's test may report a hit a little past its world box (its
+    // rounding, within the reject box), so a ray just above the plane, in the upper cells only,
+    // must still meet them.
+    use strahl_core::accel::work::QueryWork;
+    use strahl_core::geom::solid::extent::{reject_margin, SolidExtent};
+    use strahl_core::math::aabb::Aabb;
+    let boxes: Vec<Aabb> = (0..16)
+        .flat_map(|i| (0..16).map(move |k| (i, k)))
+        .map(|(i, k)| {
+            let lo = Vec3::new(
+                2.0 * (i % 8) as f32 + if i < 8 { 0.0 } else { 16.0 },
+                0.0,
+                0.0,
+            );
+            let lo = lo + Vec3::new(0.0, 2.0 * k as f32, 0.0);
+            Aabb {
+                min: lo,
+                max: lo + Vec3::new(2.0, 2.0, 32.0),
+            }
+        })
+        .collect();
+    let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
+    let tree = Octree::build_mixed(&[], &solids, &OctreeParams::default());
+    assert_eq!(tree.bounds().center().x, 16.0);
+    assert!(tree.stats().depth >= 2, "{:?}", tree.stats());
+    // The solids ending at x = 16: i = 7, their boxes' max.x is 16.
+    let touching: Vec<u32> = (0..boxes.len() as u32)
+        .filter(|&i| boxes[i as usize].max.x == 16.0)
+        .collect();
+    assert_eq!(touching.len(), 16);
+    for &i in &touching {
+        let b = boxes[i as usize];
+        let x = 16.0 + reject_margin(&b) / 2.0;
+        let y = (b.min.y + b.max.y) / 2.0;
+        // Along z, just above the plane: the test reports a hit for any primitive whose reject
+        // box the ray passes through (what a solid's test may do). The solids starting at
+        // x = 16 are reached too, at the same `t`: the tie goes to the touching one, the lower
+        // index, only if the walk tests it.
+        let ray = Ray::new(Vec3::new(x, y, -1.0), Vec3::Z);
+        let reach = |j: u32| {
+            let b = boxes[j as usize];
+            let m = reject_margin(&b);
+            (b.min.x - m..=b.max.x + m).contains(&x) && (b.min.y - m..=b.max.y + m).contains(&y)
+        };
+        let hit = tree.closest_hit_with(
+            &ray,
+            f32::INFINITY,
+            &mut QueryWork::default(),
+            |j, bound| {
+                let t = boxes[j as usize].min.z + 1.0;
+                (reach(j) && t < bound).then_some(strahl_core::geom::triangle::TriangleHit {
+                    t,
+                    t_error: 0.0,
+                    b: [1.0, 0.0, 0.0],
+                })
+            },
+        );
+        assert_eq!(hit.map(|(j, _)| j), Some(i), "ray {ray:?}");
+    }
+}

@@ -3,7 +3,8 @@
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a sphere standing alone by where
-//! its surface is, another solid by its world bounding box. A primitive whose box lies on one
+//! its surface is, another solid by its reject box (where its test can report a hit: its world
+//! box and the test's rounding; `SolidExtent::reach`). A primitive whose box lies on one
 //! side of a centre plane, touching it or in it, is filed on that side only (exact comparisons,
 //! no margin): its points on the plane belong to that side's closed cells as well, and the walk
 //! visits the cells on both sides of every point where a ray meets a centre plane. Without this,
@@ -183,9 +184,10 @@ fn filed_primitives(
         }
     }
     for (j, solid) in solids.iter().enumerate() {
-        match solid.bounds() {
-            Some(b) => {
-                boxes.push(b);
+        match solid.bounds().zip(solid.reach()) {
+            Some((b, reach)) => {
+                // Filed by where its test can hit; the root's box is the world boxes'.
+                boxes.push(reach);
                 filed.push((triangles.len() + j) as u32);
                 bounds.min = bounds.min.min(b.min);
                 bounds.max = bounds.max.max(b.max);

@@ -10,7 +10,7 @@
 //!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
 //!   child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by its
 //!   error bound), a sphere standing alone in every cell its surface passes through, and other
-//!   solids in every cell their world box touches; a primitive that only touches a centre plane
+//!   solids in every cell their reject box touches; a primitive that only touches a centre plane
 //!   from one side is filed on that side alone.
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray

@@ -1,5 +1,6 @@
 //! [`SolidExtent`]: where in the world a scene object can be hit, as the octree build files it:
-//! nowhere bounded (a plane), within a box, or on a sphere's surface.
+//! nowhere bounded (a plane), within a box, or on a sphere's surface; and the reject box, how far
+//! beyond its world box an object's test can report a hit.
 
 use crate::math::aabb::Aabb;
 use glam::Vec3;
@@ -36,5 +37,32 @@ impl SolidExtent {
             SolidExtent::Unbounded => None,
             SolidExtent::Box(b) | SolidExtent::Sphere { bounds: b, .. } => Some(b),
         }
+    }
+
+    /// Where the solid's test can report a hit: its world box grown by [`reject_margin`] (the
+    /// test's rounding reaches a little beyond the world box). The octree compares this box
+    /// with its cells' centre planes exactly.
+    pub fn reach(&self) -> Option<Aabb> {
+        self.bounds().map(|b| reject_box(&b))
+    }
+}
+
+/// How far an object's reject box reaches beyond its world box, relative to the box's size and
+/// distance from the origin: orders of magnitude above the rounding of any crossing the object's
+/// test can report, so the box test never drops a hit the test would find.
+pub const REJECT_MARGIN: f32 = 1e-4;
+
+/// [`REJECT_MARGIN`] for the object with world box `b`, in world units.
+pub fn reject_margin(b: &Aabb) -> f32 {
+    let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
+    scale * REJECT_MARGIN
+}
+
+/// `b` grown by [`REJECT_MARGIN`]: the object's reject box.
+pub fn reject_box(b: &Aabb) -> Aabb {
+    let m = Vec3::splat(reject_margin(b));
+    Aabb {
+        min: b.min - m,
+        max: b.max + m,
     }
 }

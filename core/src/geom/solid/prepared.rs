@@ -5,7 +5,7 @@
 //! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
-use super::extent::SolidExtent;
+use super::extent::{reject_box, reject_margin, SolidExtent};
 use super::mesh;
 use super::shape::{self, Face};
 use super::spans::{combine, Boundary, Span};
@@ -109,36 +109,16 @@ pub struct Solids {
     /// World box of each object (`None`: unbounded).
     bounds: Vec<Option<Aabb>>,
     /// Per object, the box a ray must cross before the object is evaluated: its world box grown
-    /// by [`REJECT_MARGIN`]; `None` for unbounded objects and for lone spheres, whose own test
+    /// by [`REJECT_MARGIN`](super::extent::REJECT_MARGIN); `None` for unbounded objects and for lone spheres, whose own test
     /// is about as cheap.
     reject_boxes: Vec<Option<Aabb>>,
     /// Object-space triangles of the mesh nodes.
     mesh_triangles: Vec<[Vec3; 3]>,
 }
 
-/// How far an object's reject box reaches beyond its world box, relative to the box's size and
-/// distance from the origin: orders of magnitude above the rounding of any crossing the object's
-/// test can report, so the box test never drops a hit the test would find.
-const REJECT_MARGIN: f32 = 1e-4;
-
-/// [`REJECT_MARGIN`] for the object with world box `b`, in world units.
-fn reject_margin(b: &Aabb) -> f32 {
-    let scale = (b.max - b.min).max_element() + b.min.abs().max(b.max.abs()).max_element();
-    scale * REJECT_MARGIN
-}
-
-/// `b` grown by [`REJECT_MARGIN`].
-fn reject_box(b: &Aabb) -> Aabb {
-    let m = Vec3::splat(reject_margin(b));
-    Aabb {
-        min: b.min - m,
-        max: b.max + m,
-    }
-}
-
 /// The world centre and radius of a sphere placed by `placement`, if the placement keeps it a
 /// sphere: its linear part a rotation times one scale, to a millionth (the rest is far inside
-/// [`REJECT_MARGIN`]). `None` for an ellipsoid.
+/// [`REJECT_MARGIN`](super::extent::REJECT_MARGIN)). `None` for an ellipsoid.
 fn world_sphere(radius: f32, placement: &Placement) -> Option<(Vec3, f32)> {
     let m = placement.to_world.matrix;
     let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.to_array().map(f64::from));
