@@ -351,7 +351,7 @@ fn push_children<const S: usize>(
             depth,
             node,
             (child, in_plane),
-            &events[..n],
+            (&events, n),
             stack,
             top,
         );
@@ -416,22 +416,13 @@ fn push_both_sides<const S: usize>(
     depth: u16,
     node: super::Node,
     (child, in_plane): (usize, usize),
-    events: &[(f32, usize)],
+    events: (&[(f32, usize); 3], usize),
     stack: &mut [Entry; S],
     mut top: usize,
 ) -> usize {
-    let mut all = [(f32::INFINITY, 0usize); 3];
-    all[..events.len()].copy_from_slice(events);
     let mut side = in_plane;
     loop {
-        top = push_path(
-            (t0, t1, depth),
-            node,
-            child ^ side,
-            (&all, events.len()),
-            stack,
-            top,
-        );
+        top = push_path((t0, t1, depth), node, child ^ side, events, stack, top);
         if side == 0 {
             return top;
         }
