@@ -89,6 +89,41 @@ fn boundary_aligned_grid_matches() {
 }
 
 #[test]
+fn a_small_object_on_a_wide_floor_matches_with_a_grown_root() {
+    // A floor 100 wide with a ball of radius 1 on it: 100 : 2. Cut as it is, every cell would be
+    // a slab 50 times wider than tall; the root is grown upward to at most 4 : 1.
+    let mut m = MeshBuilder::default();
+    m.grid(
+        Vec3::new(-50.0, -50.0, 0.0),
+        Vec3::new(100.0, 0.0, 0.0),
+        Vec3::new(0.0, 100.0, 0.0),
+        10,
+        0,
+    );
+    let mut tris = positions(&m);
+    let ball = positions(&closed_sphere(24, 12, 0.0, &mut Rng::new(4)));
+    tris.extend(
+        ball.into_iter()
+            .map(|t| t.map(|p| p + Vec3::new(0.0, 0.0, 1.0))),
+    );
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    let (bounds, root) = (tree.bounds(), tree.root());
+    assert_eq!(root.min, bounds.min);
+    assert!(
+        root.max.cmpge(bounds.max).all(),
+        "{root:?} does not hold {bounds:?}"
+    );
+    let size = root.max - root.min;
+    assert!(size.z >= size.x / 4.0, "root {size} is flatter than 4 : 1");
+    assert!(
+        bounds.max.z - bounds.min.z < size.z / 10.0,
+        "root not grown: {size}"
+    );
+    let hits = compare(&tris, &OctreeParams::default(), 30_000, 15);
+    assert!(hits > 10_000);
+}
+
+#[test]
 fn thousands_of_triangles_in_one_spot_match() {
     // A big room around a tiny dense cluster: deep cells, identical and overlapping triangles.
     let mut m = MeshBuilder::default();

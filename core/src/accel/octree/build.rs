@@ -129,7 +129,8 @@ impl Octree {
             max_leaf_triangles: params.max_leaf_triangles.max(1),
         };
         let (filed, boxes, bounds) = filed_primitives(triangles, solids);
-        let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
+        let root = root_cell(bounds);
+        let magnitude = root.min.abs().max(root.max.abs()).max_element();
         let mut b = Builder {
             triangles,
             boxes,
@@ -144,7 +145,7 @@ impl Octree {
             budget: (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET),
         };
         let filed_count = filed.len() as u32;
-        b.add_leaf(bounds, 0, filed);
+        b.add_leaf(root, 0, filed);
         while let Some((_, Reverse(node))) = b.queue.pop() {
             if !b.step(node as usize) {
                 break;
@@ -157,8 +158,32 @@ impl Octree {
             nodes,
             indices,
             bounds,
+            root,
             stats,
         }
+    }
+}
+
+/// How much longer than its shortest side the root cell may be: a box flatter than this is grown
+/// along its short sides (from its lower corner) until it is not.
+///
+/// Every cell of an octree has its root's shape, so a scene much wider than tall (a small object
+/// on a large floor: SPD's tree, 30 : 1, and balls, 18 : 1) would be cut into flat slabs, and a
+/// ray through the object crosses one slab per level of height. Growing those roots to 4 : 1
+/// cut tracing to 0.70 (tree_8) and 0.66 (balls_4) of its time; growing them all the way to a
+/// cube did about as well on those two but made SPD's gears (4 : 1, flat gears on a floor) 1.5×
+/// slower, as did growing gears' root to 2 : 1 (`docs/performance.md`, fifth round). The surface
+/// area heuristic cannot choose the root's shape: it assumes rays spread evenly over directions,
+/// and judged the flat trees cheaper for tree and balls.
+const MAX_ROOT_ASPECT: f32 = 4.0;
+
+/// The root cell around `bounds`: the box itself, grown where it is flatter than
+/// [`MAX_ROOT_ASPECT`].
+fn root_cell(bounds: Aabb) -> Aabb {
+    let shortest = (bounds.max - bounds.min).max_element() / MAX_ROOT_ASPECT;
+    Aabb {
+        min: bounds.min,
+        max: bounds.max.max(bounds.min + Vec3::splat(shortest)),
     }
 }
 

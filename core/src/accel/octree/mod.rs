@@ -135,7 +135,10 @@ impl OctreeStats {
 pub struct Octree {
     nodes: Vec<Node>,
     indices: Vec<u32>,
+    /// The box around every filed primitive.
     bounds: Aabb,
+    /// The root cell: `bounds`, grown where it is much flatter than a cube (see `build.rs`).
+    root: Aabb,
     stats: OctreeStats,
 }
 
@@ -175,6 +178,12 @@ impl Octree {
     /// The box around every filed triangle.
     pub fn bounds(&self) -> Aabb {
         self.bounds
+    }
+
+    /// The root cell, which the cells of the tree divide: [`Octree::bounds`], grown along its
+    /// short sides where it is much flatter than a cube.
+    pub fn root(&self) -> Aabb {
+        self.root
     }
 
     /// The node array (root at index 0).

@@ -233,7 +233,7 @@ impl Octree {
         mut leaf: impl FnMut(&[u32]) -> f32,
     ) -> u64 {
         let inv_dir = Vec3::ONE / ray.dir;
-        let Some((t0, t1)) = self.bounds.intersect(ray, inv_dir, t_max) else {
+        let Some((t0, t1)) = self.root.intersect(ray, inv_dir, t_max) else {
             return 0;
         };
         let mut cells = 0u64;
@@ -268,7 +268,7 @@ impl Octree {
                 cutoff = leaf(&self.indices[start..start + node.count as usize]);
                 continue;
             }
-            let cell = path.enter(&e, self.bounds);
+            let cell = path.enter(&e, self.root);
             top = push_children(ray, inv_dir, &e, node, cell.center(), &mut stack, top);
         }
         cells
