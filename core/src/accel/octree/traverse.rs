@@ -31,8 +31,10 @@ const fn stack_size(depth: u32) -> usize {
     7 * depth as usize + 2
 }
 
-/// Trees at most this deep (most scenes') are walked with a smaller stack and path.
+/// Trees at most this deep (most scenes') are walked with a smaller stack and path, and trees at
+/// most [`MIDDLE_DEPTH`] deep with a middle-sized one: every query clears its stack and path.
 const SHALLOW_DEPTH: u32 = 10;
+const MIDDLE_DEPTH: u32 = 14;
 
 /// The primitives one query has tested lately, direct-mapped by index. A primitive filed in
 /// several cells the ray crosses is then tested once instead of once per cell, as long as no
@@ -215,6 +217,10 @@ impl Octree {
         // Every query clears its stack and path: a tree no deeper than most clears less.
         if self.stats.depth <= SHALLOW_DEPTH {
             self.walk_in::<{ stack_size(SHALLOW_DEPTH) }, { SHALLOW_DEPTH as usize + 1 }>(
+                ray, t_max, leaf,
+            )
+        } else if self.stats.depth <= MIDDLE_DEPTH {
+            self.walk_in::<{ stack_size(MIDDLE_DEPTH) }, { MIDDLE_DEPTH as usize + 1 }>(
                 ray, t_max, leaf,
             )
         } else {
