@@ -6,6 +6,7 @@
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
 use super::extent::{reject_box, reject_margin, SolidExtent};
+use super::lone_sphere::LoneSphere;
 use super::mesh;
 use super::shape::{self, Face};
 use super::spans::{combine, Boundary, Span};
@@ -112,6 +113,9 @@ pub struct Solids {
     /// by [`REJECT_MARGIN`](super::extent::REJECT_MARGIN); `None` for unbounded objects and for lone spheres, whose own test
     /// is about as cheap.
     reject_boxes: Vec<Option<Aabb>>,
+    /// Per object, the sphere it is if it is one sphere moved by a translation alone (tested
+    /// without its node).
+    lone_spheres: Vec<Option<LoneSphere>>,
     /// Object-space triangles of the mesh nodes.
     mesh_triangles: Vec<[Vec3; 3]>,
 }
@@ -230,11 +234,21 @@ impl Solids {
                 b.as_ref().filter(|_| !sphere).map(reject_box)
             })
             .collect();
+        let lone_spheres = objects
+            .iter()
+            .map(|&r| match &prepared[r as usize] {
+                PreparedNode::Leaf {
+                    shape, placement, ..
+                } => LoneSphere::of(shape, placement, r),
+                _ => None,
+            })
+            .collect();
         Solids {
             nodes: prepared,
             objects: objects.to_vec(),
             bounds,
             reject_boxes,
+            lone_spheres,
             mesh_triangles: mesh_triangles.to_vec(),
         }
     }
@@ -380,6 +394,9 @@ impl Solids {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<SolidHit> {
+        if let Some(sphere) = &self.lone_spheres[object as usize] {
+            return sphere.first_hit(ray, t_max);
+        }
         let root = self.objects[object as usize];
         if let PreparedNode::Leaf {
             shape, placement, ..

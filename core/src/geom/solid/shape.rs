@@ -133,6 +133,17 @@ pub fn first_crossing(shape: &Shape, o: Vec3, d: Vec3, t_max: f32) -> Option<(f3
             .find(|c| in_front(c.t, c.t_error))?;
         return (first.t < t_max).then_some((first.t, first.t_error, first.face));
     };
+    sphere_first_crossing(radius, o, d, t_max)
+}
+
+/// [`first_crossing`] for the sphere of radius `radius` around the origin.
+#[inline(always)]
+pub fn sphere_first_crossing(
+    radius: f32,
+    o: Vec3,
+    d: Vec3,
+    t_max: f32,
+) -> Option<(f32, f32, Face)> {
     let (t0, t1) = sphere_roots(radius, o, d)?;
     if t0 >= t_max {
         // Both roots are at or past t_max, so whichever is in front is too.
