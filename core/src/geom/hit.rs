@@ -1,5 +1,8 @@
 //! What the closest-hit queries need of any primitive's hit: its `t`, that value's error bound,
-//! and the one rule that orders hits (smaller `t`, ties to the smaller primitive index).
+//! the one rule that orders hits (smaller `t`, ties to the smaller primitive index), and the
+//! closest hit so far ([`Closest`]) with the bound it puts on further tests.
+
+use crate::math::float::MACHINE_EPSILON;
 
 use super::triangle::TriangleHit;
 
@@ -29,5 +32,56 @@ pub fn closer<H: RayHit>(t: f32, index: u32, best: &Option<(u32, H)>) -> bool {
     match best {
         None => true,
         Some((i, b)) => t < b.t() || (t == b.t() && index < *i),
+    }
+}
+
+/// The closest hit a query has found so far, and the bound it puts on the tests still to come.
+#[derive(Clone, Copy, Debug)]
+pub struct Closest<H> {
+    best: Option<(u32, H)>,
+    bound: f32,
+}
+
+impl<H: RayHit> Closest<H> {
+    /// No hit yet; tests are bounded by `t_max`.
+    #[inline]
+    pub fn new(t_max: f32) -> Self {
+        Closest {
+            best: None,
+            bound: t_max,
+        }
+    }
+
+    /// The bound to give the next test: `t_max`, and once there is a hit its `t` loosened by four
+    /// roundings, so only hits that lose the comparison anyway are cut early (the winner stays
+    /// exact). A test's hit does not depend on its bound, only whether it is reported.
+    #[inline]
+    pub fn bound(&self) -> f32 {
+        self.bound
+    }
+
+    /// Offers primitive `index`'s hit `h`; it is kept if it is [`closer`].
+    #[inline]
+    pub fn offer(&mut self, index: u32, h: H) {
+        if closer(h.t(), index, &self.best) {
+            self.best = Some((index, h));
+            self.bound = self.bound.min(h.t() * (1.0 + 4.0 * MACHINE_EPSILON));
+        }
+    }
+
+    /// Where cells stop mattering: those that start beyond the best hit plus its error bound
+    /// cannot hold a closer one.
+    #[inline]
+    pub fn cutoff(&self) -> f32 {
+        match &self.best {
+            Some((_, b)) => b.t() + b.t_error(),
+            None => f32::INFINITY,
+        }
+    }
+
+    /// The closest hit, with its primitive's index.
+    #[inline]
+    pub fn best(&self) -> Option<(u32, H)> {
+        self.best
     }
 }

@@ -1,13 +1,18 @@
 //! The scene's ray queries over every primitive: triangles and bounded solids through the octree,
 //! unbounded solids (half-spaces) beside it.
 //!
+//! Where the octree's leaves are large (many overlapping spheres), the closest-hit query tests
+//! lone spheres in groups ([`SphereGroup`]), to the same hits.
+//!
 //! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
 //! smallest primitive index (triangles first, then solids), so every machine picks the same one.
 //! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
 //! [`QueryWork`].
 
+use crate::accel::octree::GroupTests;
 use crate::accel::work::QueryWork;
-use crate::geom::hit::{closer, RayHit};
+use crate::geom::hit::{closer, Closest, RayHit};
+use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
 use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
 use crate::math::ray::Ray;
@@ -64,6 +69,46 @@ impl QueryFrame {
     }
 }
 
+/// One closest-hit query's tests for [`Octree::closest_hit_grouped`]: lone spheres in groups,
+/// together (their hits are [`Scene::test_primitive`]'s to the bit), the rest one by one.
+struct SceneTests<'a> {
+    scene: &'a Scene,
+    frame: &'a QueryFrame,
+    ray: &'a Ray,
+    spans: &'a mut SpanScratch,
+    spheres: SphereGroup,
+}
+
+impl GroupTests<PrimitiveHit> for SceneTests<'_> {
+    #[inline(always)]
+    fn test(&mut self, i: u32, bound: f32) -> Option<PrimitiveHit> {
+        self.scene
+            .test_primitive(self.frame, self.ray, i, bound, self.spans)
+    }
+
+    #[inline]
+    fn test_group(&mut self, group: &[u32], closest: &mut Closest<PrimitiveHit>) {
+        let n = self.scene.triangle_points.len() as u32;
+        self.spheres.clear();
+        for &i in group {
+            match i
+                .checked_sub(n)
+                .and_then(|j| self.scene.solids.lone_sphere(j))
+            {
+                Some(sphere) => self.spheres.push(i, sphere),
+                None => {
+                    if let Some(h) = self.test(i, closest.bound()) {
+                        closest.offer(i, h);
+                    }
+                }
+            }
+        }
+        if !self.spheres.is_empty() {
+            (self.spheres).test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
+        }
+    }
+}
+
 impl Scene {
     /// Primitive index of solid object `j`.
     #[inline]
@@ -109,9 +154,21 @@ impl Scene {
         }
         let spans = &mut scratch.spans;
         let frame = QueryFrame::new(ray);
-        let mut best = self.octree.closest_hit_with(ray, t_max, work, |i, bound| {
-            self.test_primitive(&frame, ray, i, bound, spans)
-        });
+        let mut best = if self.group_spheres {
+            let mut tests = SceneTests {
+                scene: self,
+                frame: &frame,
+                ray,
+                spans,
+                spheres: SphereGroup::new(),
+            };
+            self.octree
+                .closest_hit_grouped(ray, t_max, work, &mut tests)
+        } else {
+            self.octree.closest_hit_with(ray, t_max, work, |i, bound| {
+                self.test_primitive(&frame, ray, i, bound, spans)
+            })
+        };
         work.intersection_tests += self.unbounded.len() as u64;
         for &j in &self.unbounded {
             let bound = best.map_or(t_max, |(_, h)| {

@@ -4,13 +4,20 @@
 //! ([`PreparedNode::Leaf`](super::prepared::PreparedNode)) carries the shape and a placement of
 //! four matrices, about 170 bytes, and a test reads both and applies the inverse matrix. A
 //! [`LoneSphere`] keeps the 24 bytes the test needs and runs the node's test operation for
-//! operation (the identity as inverse included), so every hit is the node's to the bit. On
-//! SPD's shells, where a ray tests hundreds of overlapping spheres, the nodes no longer fit the
-//! cache; these records do.
+//! operation (the identity as inverse included), so every hit is the node's to the bit.
+//!
+//! [`SphereGroup`] tests up to [`GROUP`] of them against one ray together: their roots are
+//! computed lane by lane without branches, as `shape.rs`'s `sphere_roots` computes them, and
+//! only those whose nearer root is below the bound go on, one by one, to the error bounds. On
+//! SPD's shells a ray meets hundreds of overlapping spheres in one cell, most of which it
+//! misses or meets behind a closer one; one by one, each such test waited on its divisions and
+//! on a branch the processor could not predict.
 
 use super::prepared::SolidHit;
 use super::shape;
 use super::Shape;
+use crate::accel::octree::GROUP;
+use crate::geom::hit::{Closest, RayHit};
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
 use glam::{Mat3, Vec3};
@@ -54,6 +61,182 @@ impl LoneSphere {
             face,
             flip: false,
         })
+    }
+}
+
+/// Up to [`GROUP`] lone spheres, with their primitive indices, to test against one ray.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereGroup {
+    spheres: [LoneSphere; GROUP],
+    indices: [u32; GROUP],
+    len: usize,
+}
+
+impl SphereGroup {
+    /// A group of no spheres.
+    pub fn new() -> SphereGroup {
+        SphereGroup {
+            spheres: [LoneSphere {
+                centre: Vec3::ZERO,
+                radius: 0.0,
+                leaf: 0,
+            }; GROUP],
+            indices: [0; GROUP],
+            len: 0,
+        }
+    }
+
+    /// Empties the group.
+    #[inline]
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    /// Adds `sphere`, primitive `index`; the group must not be full.
+    #[inline]
+    pub fn push(&mut self, index: u32, sphere: LoneSphere) {
+        self.spheres[self.len] = sphere;
+        self.indices[self.len] = index;
+        self.len += 1;
+    }
+
+    /// How many spheres the group holds.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True if the group holds no sphere.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Tests every sphere of the group against `ray` and offers each hit to `closest`, as
+    /// `hit(index, solid_hit)`: the hits [`LoneSphere::first_hit`] reports with the bound
+    /// `closest` gives at the time, to the bit.
+    #[inline]
+    pub fn test<H: RayHit>(
+        &self,
+        ray: &Ray,
+        closest: &mut Closest<H>,
+        hit: impl Fn(u32, SolidHit) -> H,
+    ) {
+        if self.len < GROUP / 2 {
+            // Too few to fill the lanes: one by one costs less.
+            for (sphere, &i) in self.spheres.iter().zip(&self.indices).take(self.len) {
+                if let Some(h) = sphere.first_hit(ray, closest.bound()) {
+                    closest.offer(i, hit(i, h));
+                }
+            }
+            return;
+        }
+        let d = Mat3::IDENTITY * ray.dir;
+        let lanes = Lanes::new(&self.spheres, ray.origin);
+        let (t0, t1, mut may_hit) = lanes.roots(d, self.len, closest.bound());
+        while may_hit != 0 {
+            let k = may_hit.trailing_zeros() as usize;
+            may_hit &= may_hit - 1;
+            let o = Vec3::new(lanes.x[k], lanes.y[k], lanes.z[k]);
+            let sphere = &self.spheres[k];
+            let found = shape::first_root_in_front(o, d, (t0[k], t1[k]), closest.bound());
+            if let Some((t, t_error, face)) = found {
+                let solid = SolidHit {
+                    t,
+                    t_error,
+                    leaf: sphere.leaf,
+                    face,
+                    flip: false,
+                };
+                closest.offer(self.indices[k], hit(self.indices[k], solid));
+            }
+        }
+    }
+}
+
+impl Default for SphereGroup {
+    fn default() -> Self {
+        SphereGroup::new()
+    }
+}
+
+/// The ray's origin in each sphere's object space, and the radii, one lane per sphere.
+struct Lanes {
+    x: [f32; GROUP],
+    y: [f32; GROUP],
+    z: [f32; GROUP],
+    r: [f32; GROUP],
+}
+
+impl Lanes {
+    /// The lanes of `spheres` for a ray from `origin`: `Mat3::IDENTITY * (origin − centre)`, as
+    /// [`LoneSphere::first_hit`] computes it (the products by 0 and their sums kept).
+    #[inline(always)]
+    fn new(spheres: &[LoneSphere; GROUP], origin: Vec3) -> Lanes {
+        let mut l = Lanes {
+            x: [0.0; GROUP],
+            y: [0.0; GROUP],
+            z: [0.0; GROUP],
+            r: [0.0; GROUP],
+        };
+        for (k, sphere) in spheres.iter().enumerate() {
+            let o = origin - sphere.centre;
+            l.x[k] = (o.x + 0.0 * o.y) + 0.0 * o.z;
+            l.y[k] = (0.0 * o.x + o.y) + 0.0 * o.z;
+            l.z[k] = (0.0 * o.x + 0.0 * o.y) + o.z;
+            l.r[k] = sphere.radius;
+        }
+        l
+    }
+
+    /// Per lane, the roots `shape.rs`'s `sphere_roots` and `quadratic` compute for direction `d`
+    /// (anything where there are none), and a mask of the first `len` lanes that have roots and
+    /// whose nearer root is not at or past `bound`.
+    #[inline(always)]
+    fn roots(&self, d: Vec3, len: usize, bound: f32) -> ([f32; GROUP], [f32; GROUP], u32) {
+        let a = d.dot(d);
+        // Three passes, so the first and the last compile to vector instructions (the square
+        // roots between them are `libm`'s, one lane at a time).
+        let mut b = [0.0f32; GROUP];
+        let mut c = [0.0f32; GROUP];
+        let mut disc = [0.0f32; GROUP];
+        for k in 0..GROUP {
+            let (x, y, z, r) = (self.x[k], self.y[k], self.z[k], self.r[k]);
+            let od = (x * d.x + y * d.y) + z * d.z;
+            b[k] = 2.0 * od;
+            c[k] = ((x * x + y * y) + z * z) - r * r;
+            let s = od / a;
+            let (fx, fy, fz) = (x - d.x * s, y - d.y * s, z - d.z * s);
+            disc[k] = 4.0 * a * (r * r - ((fx * fx + fy * fy) + fz * fz));
+        }
+        let root: [f32; GROUP] = core::array::from_fn(|k| libm::sqrtf(disc[k]));
+        let mut t0 = [0.0f32; GROUP];
+        let mut t1 = [0.0f32; GROUP];
+        let mut keep = [false; GROUP];
+        for k in 0..GROUP {
+            let q = if b[k] < 0.0 {
+                -0.5 * (b[k] - root[k])
+            } else {
+                -0.5 * (b[k] + root[k])
+            };
+            let (u, v) = if q == 0.0 {
+                (0.0, 0.0)
+            } else {
+                (q / a, c[k] / q)
+            };
+            (t0[k], t1[k]) = if u <= v { (u, v) } else { (v, u) };
+            // As `quadratic` and `first_root_in_front` decide: no roots where the discriminant
+            // is negative or `a` zero, and a NaN nearer root does not stop the test.
+            let before = t0[k] < bound || t0[k].is_nan();
+            let roots = (disc[k] >= 0.0 || disc[k].is_nan()) && a != 0.0;
+            keep[k] = roots && before;
+        }
+        let mask = keep
+            .iter()
+            .take(len)
+            .enumerate()
+            .fold(0u32, |m, (k, &h)| m | u32::from(h) << k);
+        (t0, t1, mask)
     }
 }
 
@@ -109,6 +292,61 @@ mod tests {
             );
             assert!(got.is_none_or(|h| h.leaf == 3 && !h.flip));
             hits += usize::from(got.is_some());
+        }
+        assert!(hits > 5_000, "{hits} hits");
+    }
+
+    #[test]
+    fn a_group_finds_the_closest_hit_of_its_spheres_one_by_one_to_the_bit() {
+        let mut rng = Rng::new(9);
+        let mut hits = 0;
+        for i in 0..20_000u32 {
+            // A cluster of overlapping spheres, at times far out (squares overflow to infinity).
+            let scale = if i % 50 == 0 { 1e20 } else { 1.0 };
+            let base = Vec3::new(
+                rng.range(-3.0, 3.0),
+                rng.range(-3.0, 3.0),
+                rng.range(-3.0, 3.0),
+            );
+            let mut group = SphereGroup::new();
+            let len = 1 + (i as usize % GROUP);
+            for k in 0..len {
+                let centre = (base + rng.direction() * rng.range(0.0, 0.5)) * scale;
+                let shape = Shape::Sphere {
+                    radius: rng.range(0.05, 1.0) * scale,
+                };
+                let pl = Placement::new(&Transform::translate(centre));
+                let sphere = LoneSphere::of(&shape, &pl, 40 + k as u32).expect("lone");
+                group.push(100 + k as u32, sphere);
+            }
+            let origin = base * scale + rng.direction() * rng.range(0.0, 6.0) * scale;
+            let mut dir = base * scale + rng.direction() * scale - origin;
+            if i % 7 == 0 {
+                dir[i as usize % 3] = -0.0;
+            }
+            if dir == Vec3::ZERO {
+                continue;
+            }
+            let ray = Ray::new(origin, dir);
+            let t_max = if i % 3 == 0 {
+                f32::INFINITY
+            } else {
+                rng.range(0.5, 8.0) * scale
+            };
+            let mut one_by_one = Closest::new(t_max);
+            for k in 0..len {
+                if let Some(h) = group.spheres[k].first_hit(&ray, one_by_one.bound()) {
+                    one_by_one.offer(group.indices[k], h);
+                }
+            }
+            let mut together = Closest::new(t_max);
+            group.test(&ray, &mut together, |_, h| h);
+            let key = |c: &Closest<SolidHit>| {
+                c.best()
+                    .map(|(i, h)| (i, h.t.to_bits(), h.t_error.to_bits(), h.leaf))
+            };
+            assert_eq!(key(&together), key(&one_by_one), "case {i}: {ray:?}");
+            hits += usize::from(one_by_one.best().is_some());
         }
         assert!(hits > 5_000, "{hits} hits");
     }

@@ -116,6 +116,8 @@ pub struct Solids {
     /// Per object, the sphere it is if it is one sphere moved by a translation alone (tested
     /// without its node).
     lone_spheres: Vec<Option<LoneSphere>>,
+    /// True if any of them is one.
+    any_lone_sphere: bool,
     /// Object-space triangles of the mesh nodes.
     mesh_triangles: Vec<[Vec3; 3]>,
 }
@@ -234,7 +236,7 @@ impl Solids {
                 b.as_ref().filter(|_| !sphere).map(reject_box)
             })
             .collect();
-        let lone_spheres = objects
+        let lone_spheres: Vec<Option<LoneSphere>> = objects
             .iter()
             .map(|&r| match &prepared[r as usize] {
                 PreparedNode::Leaf {
@@ -243,14 +245,28 @@ impl Solids {
                 _ => None,
             })
             .collect();
+        let any_lone_sphere = lone_spheres.iter().any(Option::is_some);
         Solids {
             nodes: prepared,
             objects: objects.to_vec(),
             bounds,
             reject_boxes,
             lone_spheres,
+            any_lone_sphere,
             mesh_triangles: mesh_triangles.to_vec(),
         }
+    }
+
+    /// Object `object` as a lone sphere, if it is one (one sphere moved by a translation alone).
+    #[inline]
+    pub fn lone_sphere(&self, object: u32) -> Option<LoneSphere> {
+        self.lone_spheres.get(object as usize).copied().flatten()
+    }
+
+    /// True if any object is a lone sphere.
+    #[inline]
+    pub fn has_lone_spheres(&self) -> bool {
+        self.any_lone_sphere
     }
 
     /// World boxes of the objects, `None` for unbounded ones (those stay out of the octree).

@@ -62,6 +62,7 @@ fn position_error(o: Vec3, d: Vec3, t: f32) -> f32 {
 }
 
 /// The two roots of `a·t² + b·t + c = 0` in increasing order, computed without cancellation.
+/// `lone_sphere.rs` computes the same for several spheres at once, operation for operation.
 #[inline]
 fn quadratic(a: f32, b: f32, disc: f32, c: f32) -> Option<(f32, f32)> {
     if disc < 0.0 || a == 0.0 {
@@ -144,7 +145,19 @@ pub fn sphere_first_crossing(
     d: Vec3,
     t_max: f32,
 ) -> Option<(f32, f32, Face)> {
-    let (t0, t1) = sphere_roots(radius, o, d)?;
+    let roots = sphere_roots(radius, o, d)?;
+    first_root_in_front(o, d, roots, t_max)
+}
+
+/// Of a sphere's roots `(t0, t1)` (in increasing order) on the ray `o + t·d`, the first in front
+/// of the origin, if it is below `t_max`: the rest of [`sphere_first_crossing`].
+#[inline(always)]
+pub fn first_root_in_front(
+    o: Vec3,
+    d: Vec3,
+    (t0, t1): (f32, f32),
+    t_max: f32,
+) -> Option<(f32, f32, Face)> {
     if t0 >= t_max {
         // Both roots are at or past t_max, so whichever is in front is too.
         return None;
@@ -159,6 +172,7 @@ pub fn sphere_first_crossing(
 }
 
 /// Where the ray `o + t·d` meets the sphere of radius `r` around the origin, in increasing order.
+/// `lone_sphere.rs` computes the same for several spheres at once, operation for operation.
 #[inline]
 fn sphere_roots(r: f32, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
     let a = d.dot(d);

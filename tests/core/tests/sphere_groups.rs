@@ -1,0 +1,123 @@
+//! Closest hits among many overlapping spheres, tested in groups (`Scene::group_spheres`), are
+//! the hits of testing them one by one, to the bit: on a spiral of overlapping balls like SPD's
+//! shells, with triangles, a cylinder and scaled spheres (not lone) mixed into the same cells.
+
+use glam::Vec3;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::ray::Ray;
+use strahl_core::math::transform::Transform;
+use strahl_core::render::intersect::{PrimitiveHit, QueryScratch};
+use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core_tests::meshes::random_soup;
+
+fn leaf(shape: Shape, transform: Transform) -> SolidNode {
+    SolidNode::Leaf {
+        shape,
+        transform,
+        shader: 0,
+    }
+}
+
+/// 1,500 balls along a shrinking spiral, each overlapping hundreds of its neighbours, plus a
+/// triangle soup, cylinders and scaled balls in the same space.
+fn shell(rng: &mut Rng) -> Scene {
+    let mut desc = SceneDesc {
+        shaders: vec![Shader::phong(
+            Vec3::splat(0.5),
+            Vec3::ZERO,
+            Vec3::ZERO,
+            1.0,
+            0.0,
+        )],
+        lights: vec![Light {
+            position: Vec3::new(0.0, 0.0, 10.0),
+            color: Vec3::ONE,
+            amount: 1.0,
+            casts_shadows: true,
+        }],
+        ..SceneDesc::default()
+    };
+    for tri in random_soup(200, rng) {
+        let first = desc.points.len() as u32;
+        desc.points.extend_from_slice(&tri);
+        desc.triangles
+            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
+    }
+    let add = |desc: &mut SceneDesc, node: SolidNode| {
+        desc.objects.push(desc.solids.len() as u32);
+        desc.solids.push(node);
+    };
+    for k in 0..1500 {
+        let a = k as f32 * 0.004;
+        let grow = 1.0 - k as f32 / 1600.0;
+        let centre = Vec3::new((a * 6.0).cos(), (a * 6.0).sin(), a) * grow;
+        let ball = Shape::Sphere { radius: 0.4 * grow };
+        add(&mut desc, leaf(ball, Transform::translate(centre)));
+        if k % 100 == 0 {
+            let cylinder = Shape::Cylinder {
+                bottom_radius: 0.1,
+                top_radius: 0.05,
+                height: 0.5,
+            };
+            add(&mut desc, leaf(cylinder, Transform::translate(centre)));
+            let scaled = Transform::translate(centre).after(&Transform::scale(Vec3::splat(0.3)));
+            add(&mut desc, leaf(Shape::Sphere { radius: 1.0 }, scaled));
+        }
+    }
+    Scene::build(&desc, &OctreeParams::default()).expect("valid scene")
+}
+
+fn key(h: Option<PrimitiveHit>) -> Option<(u32, u32, u32)> {
+    h.map(|h| match h {
+        PrimitiveHit::Triangle(i, t) => (i, t.t.to_bits(), t.t_error.to_bits()),
+        PrimitiveHit::Solid(j, s) => (1 << 31 | j, s.t.to_bits(), s.t_error.to_bits()),
+    })
+}
+
+#[test]
+fn grouped_closest_hits_are_the_one_by_one_hits() {
+    let mut rng = Rng::new(23);
+    let grouped = shell(&mut rng);
+    assert!(grouped.group_spheres, "the shell's leaves are not grouped");
+    let mut single = grouped.clone();
+    single.group_spheres = false;
+    let mut scratch = QueryScratch::default();
+    let (mut solids, mut triangles) = (0, 0);
+    for i in 0..20_000 {
+        // From around the shell and from inside it (reflection rays start in the cluster).
+        let origin = if i % 4 == 0 {
+            Vec3::new(
+                rng.range(-1.0, 1.0),
+                rng.range(-1.0, 1.0),
+                rng.range(0.0, 6.0),
+            )
+        } else {
+            rng.direction() * rng.range(3.0, 8.0)
+        };
+        let target = Vec3::new(
+            rng.range(-1.2, 1.2),
+            rng.range(-1.2, 1.2),
+            rng.range(0.0, 6.0),
+        );
+        let ray = Ray::new(origin, target - origin);
+        let t_max = if i % 5 == 0 {
+            rng.range(0.5, 3.0)
+        } else {
+            f32::INFINITY
+        };
+        let expected = single.closest_hit(&ray, t_max, &mut scratch);
+        let got = grouped.closest_hit(&ray, t_max, &mut scratch);
+        assert_eq!(key(got), key(expected), "ray {i}: {ray:?}");
+        match expected {
+            Some(PrimitiveHit::Solid(..)) => solids += 1,
+            Some(PrimitiveHit::Triangle(..)) => triangles += 1,
+            None => {}
+        }
+    }
+    assert!(
+        solids > 5_000 && triangles > 50,
+        "{solids} solid and {triangles} triangle hits"
+    );
+}
