@@ -202,21 +202,26 @@ impl Scene {
     /// [`Scene::any_hit`] for a shadow ray, trying `last` first: the primitive that blocked the
     /// previous shadow ray towards the same light (POV-Ray's light buffer). Neighbouring pixels
     /// are mostly shadowed by the same object, so one test often settles the query. The answer
-    /// is `any_hit`'s whatever `last` holds: a primitive that blocks the ray is found by the
-    /// walk too, and `last` only decides which is tried first. `last` becomes the blocker the
-    /// walk found, and keeps its old value when nothing blocks.
+    /// is `any_hit`'s whatever is remembered, and `last` only decides which is tried first.
+    /// `last` becomes the blocker the walk found, and keeps its old value when nothing blocks.
+    ///
+    /// `leaving` is the triangle the ray leaves from, if any, with its origin moved off the
+    /// triangle's plane (by at least the point's error bound) to the side the ray goes: the ray
+    /// meets that plane at `t ≤ 0`, which the triangle test never reports (it reports only a `t`
+    /// provably above 0), so it is not tested. On a large floor that test could not tell the
+    /// sign of `t` in `f32` and went to `f64` for every shadow ray.
     pub fn shadowed(
         &self,
         ray: &Ray,
         t_max: f32,
         scratch: &mut QueryScratch,
-        last: &mut Option<u32>,
+        (last, leaving): (&mut Option<u32>, Option<u32>),
     ) -> bool {
         let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         // A scratch carried over from another scene may remember an index this one lacks.
         let primitives = self.solid_index(self.solids.len() as u32);
-        if let Some(i) = last.filter(|&i| i < primitives) {
+        if let Some(i) = last.filter(|&i| i < primitives && Some(i) != leaving) {
             work.intersection_tests += 1;
             if self.blocks(&frame, ray, i, t_max, spans) {
                 return true;
@@ -224,7 +229,7 @@ impl Scene {
         }
         let mut blocker = None;
         let mut test = |i: u32| {
-            let hit = self.blocks(&frame, ray, i, t_max, spans);
+            let hit = Some(i) != leaving && self.blocks(&frame, ray, i, t_max, spans);
             if hit {
                 blocker = Some(i);
             }

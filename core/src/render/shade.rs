@@ -134,6 +134,8 @@ struct Surface {
     shader: usize,
     /// Which transparent object this surface bounds (for nested media).
     medium: u32,
+    /// The triangle hit, if a triangle was: a ray leaving its plane cannot meet it again.
+    triangle: Option<u32>,
 }
 
 /// Marks medium keys of triangle meshes (keyed by shader) apart from solids (keyed by object).
@@ -167,6 +169,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
                 entering,
                 shader: shader as usize,
                 medium: MESH_MEDIUM | shader,
+                triangle: Some(t as u32),
             }
         }
         PrimitiveHit::Solid(object, h) => {
@@ -181,6 +184,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
                 entering,
                 shader: s.shader as usize,
                 medium: *object,
+                triangle: None,
             }
         }
     }
@@ -255,7 +259,7 @@ fn local_color(
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
-            if scene.shadowed(&shadow, SHADOW_T_MAX, spans, last_blocker) {
+            if scene.shadowed(&shadow, SHADOW_T_MAX, spans, (last_blocker, s.triangle)) {
                 continue;
             }
         }

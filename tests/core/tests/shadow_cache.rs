@@ -95,14 +95,14 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
             last = Some(primitives + k);
         }
         let before = last;
-        let got = scene.shadowed(&ray, 1.0, &mut scratch, &mut last);
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (&mut last, None));
         assert_eq!(got, want, "ray {k}: {ray:?}, remembered {before:?}");
         if want {
             blocked += 1;
             let b = last.expect("a blocked ray leaves its blocker");
             // What it remembers really blocks this ray.
             assert!(
-                scene.shadowed(&ray, 1.0, &mut scratch, &mut Some(b)),
+                scene.shadowed(&ray, 1.0, &mut scratch, (&mut Some(b), None)),
                 "ray {k}: remembered {b} does not block"
             );
             remembered_hits += u32::from(before == last);

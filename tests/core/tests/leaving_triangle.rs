@@ -1,0 +1,126 @@
+//! A ray leaving a triangle (its origin moved off the plane with `offset_ray_origin`, as the
+//! shader moves it) never meets that triangle again: the triangle test reports no hit, so
+//! `Scene::shadowed` may leave it untested. Checked on small triangles, a soup, and a floor
+//! 100 units wide far from the origin, where `f32` cannot tell the sign of `t` (the case that
+//! sent every shadow ray of SPD's tree to `f64`), towards lights in every direction.
+
+use glam::Vec3;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
+use strahl_core::render::intersect::QueryScratch;
+use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core_tests::meshes::random_soup;
+
+/// A random point of `tri` (barycentrics), with its error bound, as the shader computes it.
+fn point_on(tri: &[Vec3; 3], rng: &mut Rng) -> (Vec3, Vec3) {
+    let (u, v) = (rng.next_f32(), rng.next_f32());
+    let (u, v) = if u + v > 1.0 {
+        (1.0 - u, 1.0 - v)
+    } else {
+        (u, v)
+    };
+    hit_point(tri, [1.0 - u - v, u, v])
+}
+
+fn triangles(rng: &mut Rng) -> Vec<[Vec3; 3]> {
+    let mut tris = random_soup(300, rng);
+    // A floor like SPD's tree's, and one far out.
+    for offset in [Vec3::ZERO, Vec3::new(1000.0, -700.0, 30.0)] {
+        let c = [
+            Vec3::new(50.0, 50.0, 0.0),
+            Vec3::new(-50.0, 50.0, 0.0),
+            Vec3::new(-50.0, -50.0, 0.0),
+            Vec3::new(50.0, -50.0, 0.0),
+        ]
+        .map(|p| p + offset);
+        tris.push([c[0], c[1], c[2]]);
+        tris.push([c[0], c[2], c[3]]);
+    }
+    tris
+}
+
+#[test]
+fn a_ray_leaving_a_triangle_never_meets_it() {
+    let mut rng = Rng::new(31);
+    let tris = triangles(&mut rng);
+    let mut floor_rays = 0;
+    for k in 0..200_000 {
+        let i = if k % 2 == 0 {
+            tris.len() - 1 - k % 4
+        } else {
+            k % tris.len()
+        };
+        let tri = &tris[i];
+        let Some(n) = unit_normal(tri) else { continue };
+        let (p, err) = point_on(tri, &mut rng);
+        // Towards anywhere: steep, grazing (almost in the plane) and through the triangle.
+        let w = match k % 3 {
+            0 => rng.direction(),
+            1 => (rng.direction() + n * rng.range(-1e-3, 1e-3)).normalize(),
+            _ => rng.direction() * rng.range(1.0, 60.0),
+        };
+        let origin = offset_ray_origin(p, err, n, w);
+        let ray = Ray::new(origin, w);
+        let hit = intersect(&RayFrame::new(&ray), tri, f32::INFINITY);
+        assert!(
+            hit.is_none(),
+            "ray {k} leaving triangle {i} meets it: {hit:?}, {ray:?}"
+        );
+        floor_rays += usize::from(i >= tris.len() - 4);
+    }
+    assert!(floor_rays > 90_000, "{floor_rays} rays leave the floors");
+}
+
+#[test]
+fn shadowed_leaving_a_triangle_answers_as_any_hit() {
+    let mut rng = Rng::new(37);
+    let tris = triangles(&mut rng);
+    let mut desc = SceneDesc {
+        shaders: vec![Shader::phong(Vec3::ONE, Vec3::ZERO, Vec3::ZERO, 1.0, 0.0)],
+        lights: vec![Light {
+            position: Vec3::new(0.0, 0.0, 10.0),
+            color: Vec3::ONE,
+            amount: 1.0,
+            casts_shadows: true,
+        }],
+        ..SceneDesc::default()
+    };
+    for tri in &tris {
+        let first = desc.points.len() as u32;
+        desc.points.extend_from_slice(tri);
+        desc.triangles
+            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
+    }
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    let mut scratch = QueryScratch::default();
+    let (mut blocked, mut free) = (0, 0);
+    for k in 0..20_000u32 {
+        let i = (rng.next_u64() % tris.len() as u64) as u32;
+        let tri = &tris[i as usize];
+        let Some(n) = unit_normal(tri) else { continue };
+        let (p, err) = point_on(tri, &mut rng);
+        let light = Vec3::new(
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+            rng.range(-3.0, 3.0),
+        );
+        let origin = offset_ray_origin(p, err, n, light - p);
+        let ray = Ray::new(origin, light - origin);
+        let want = scene.any_hit(&ray, 1.0, &mut scratch);
+        // Remembering the triangle it leaves changes nothing either.
+        let mut last = if k % 2 == 0 { Some(i) } else { None };
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (&mut last, Some(i)));
+        assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
+        if want {
+            blocked += 1;
+        } else {
+            free += 1;
+        }
+    }
+    assert!(
+        blocked > 1000 && free > 1000,
+        "{blocked} blocked, {free} free"
+    );
+}
