@@ -30,7 +30,8 @@ mod build;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod traverse;
-pub use traverse::{GroupTests, GROUP};
+pub use crate::geom::hit::GROUP;
+pub use traverse::GroupTests;
 
 use crate::geom::hit::closer;
 use crate::geom::triangle::{intersect, RayFrame, TriangleHit};

@@ -14,7 +14,7 @@
 use super::build::child_box;
 use super::{Hit, Octree, MAX_DEPTH_LIMIT};
 use crate::accel::work::QueryWork;
-use crate::geom::hit::{Closest, RayHit};
+use crate::geom::hit::{Closest, RayHit, GROUP};
 use crate::geom::triangle::{intersect, RayFrame};
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
@@ -30,10 +30,6 @@ const WIDEN: f32 = 2.0 * gamma(3);
 const fn stack_size(depth: u32) -> usize {
     7 * depth as usize + 2
 }
-
-/// The most primitives of one leaf a grouped closest-hit test gets at once
-/// ([`Octree::closest_hit_grouped`]).
-pub const GROUP: usize = 8;
 
 /// Trees at most this deep (most scenes') are walked with a smaller stack and path, and trees at
 /// most [`MIDDLE_DEPTH`] deep with a middle-sized one: every query clears its stack and path.

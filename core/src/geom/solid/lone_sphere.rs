@@ -13,11 +13,10 @@
 //! misses or meets behind a closer one; one by one, each such test waited on its divisions and
 //! on a branch the processor could not predict.
 
-use super::prepared::SolidHit;
+use super::hit::SolidHit;
 use super::shape;
 use super::Shape;
-use crate::accel::octree::GROUP;
-use crate::geom::hit::{Closest, RayHit};
+use crate::geom::hit::{Closest, RayHit, GROUP};
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
 use glam::{Mat3, Vec3};

@@ -12,11 +12,13 @@
 //!   reports the sub-shape actually hit, and on `A − B` the surface from `B` has its normal turned).
 //! - [`prepared`] is the render-time form: placements inverted once, world bounds, and the queries
 //!   the octree and the shader use.
+//! - [`hit`] is what every solid query returns: where the ray first meets the object.
 //! - [`lone_sphere`] tests a sphere object that is only translated without reading its node.
 //! - [`extent`] says where an object can be hit (nowhere bounded, a box, or a sphere's surface),
 //!   which is what the octree files it by.
 
 pub mod extent;
+pub mod hit;
 pub mod lone_sphere;
 pub mod mesh;
 pub mod prepared;

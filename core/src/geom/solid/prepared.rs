@@ -6,12 +6,12 @@
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
 use super::extent::{reject_box, reject_margin, SolidExtent};
+pub use super::hit::SolidHit;
 use super::lone_sphere::LoneSphere;
 use super::mesh;
-use super::shape::{self, Face};
+use super::shape;
 use super::spans::{combine, Boundary, Span};
 use super::{CsgOp, Shape, SolidNode};
-use crate::geom::hit::RayHit;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
@@ -59,33 +59,6 @@ pub struct SpanScratch {
     spans: Vec<Span>,
     combined: Vec<Span>,
     crossings: Vec<mesh::MeshCrossing>,
-}
-
-/// Where a ray first meets a solid object's surface.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SolidHit {
-    /// Ray parameter.
-    pub t: f32,
-    /// Bound on the error of `t`.
-    pub t_error: f32,
-    /// The leaf shape actually hit (index into the arena).
-    pub leaf: u32,
-    /// Its face.
-    pub face: Face,
-    /// True if the composite's outward normal is the leaf's inward one (surface from `B` in
-    /// `A − B`).
-    pub flip: bool,
-}
-
-impl RayHit for SolidHit {
-    #[inline]
-    fn t(&self) -> f32 {
-        self.t
-    }
-    #[inline]
-    fn t_error(&self) -> f32 {
-        self.t_error
-    }
 }
 
 /// The surface at a solid hit, in world space.
