@@ -1,5 +1,6 @@
 //! Octree construction: split cells at their centre where the surface area heuristic says it pays,
-//! best first, within a memory budget; file each primitive in every child it touches.
+//! best first, within a memory budget; file each primitive in every child it touches. The root
+//! cell is the primitives' box, grown where it is much flatter than a cube ([`root_cell`]).
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a sphere standing alone by where

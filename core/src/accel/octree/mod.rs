@@ -6,6 +6,8 @@
 //!   and addressed by the index of the first. A leaf is a range of [`Octree::indices`], the
 //!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
 //!   not stored but derived from the parent's by halving.
+//! - The root cell is the box around the filed primitives, grown along its short sides where it
+//!   is flatter than 4 : 1 (every cell has the root's shape; see `build.rs`).
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
 //!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
 //!   child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by its
