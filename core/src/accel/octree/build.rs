@@ -171,7 +171,7 @@ impl Octree {
 /// Every cell of an octree has its root's shape, so a scene much wider than tall (a small object
 /// on a large floor: SPD's tree, 30 : 1, and balls, 18 : 1) would be cut into flat slabs, and a
 /// ray through the object crosses one slab per level of height. Growing those roots to 4 : 1
-/// cut tracing to 0.70 (tree_8) and 0.66 (balls_4) of its time; growing them all the way to a
+/// cut tracing to 0.65 (tree_8) and 0.59 (balls_4) of its time; growing them all the way to a
 /// cube did about as well on those two but made SPD's gears (4 : 1, flat gears on a floor) 1.5×
 /// slower, as did growing gears' root to 2 : 1 (`docs/performance.md`, fifth round). The surface
 /// area heuristic cannot choose the root's shape: it assumes rays spread evenly over directions,

@@ -71,6 +71,25 @@ pub trait GroupTests<H> {
     fn test_group(&mut self, group: &[u32], closest: &mut Closest<H>);
 }
 
+/// [`GroupTests`] that test a group one primitive at a time.
+struct OneByOne<F>(F);
+
+impl<H: RayHit, F: FnMut(u32, f32) -> Option<H>> GroupTests<H> for OneByOne<F> {
+    #[inline(always)]
+    fn test(&mut self, index: u32, bound: f32) -> Option<H> {
+        (self.0)(index, bound)
+    }
+
+    #[inline(always)]
+    fn test_group(&mut self, group: &[u32], closest: &mut Closest<H>) {
+        for &i in group {
+            if let Some(h) = (self.0)(i, closest.bound()) {
+                closest.offer(i, h);
+            }
+        }
+    }
+}
+
 /// A cell waiting on the walk's stack: its node, the ray's interval `[t0, t1]` in it, its depth
 /// and which child of its parent it is. Its box is not stored: it is derived from the parent's
 /// when the cell is entered (see [`Path`]), so leaves and skipped cells never compute one.
@@ -139,30 +158,15 @@ impl Octree {
         ray: &Ray,
         t_max: f32,
         work: &mut QueryWork,
-        mut test: impl FnMut(u32, f32) -> Option<H>,
+        test: impl FnMut(u32, f32) -> Option<H>,
     ) -> Option<(u32, H)> {
-        let mut closest = Closest::new(t_max);
-        let mut mailbox = Mailbox::new();
-        let mut tests = 0u64;
-        work.octree_cells += self.walk(ray, t_max, |indices| {
-            for &i in indices {
-                if !mailbox.first_visit(i) {
-                    continue;
-                }
-                tests += 1;
-                if let Some(h) = test(i, closest.bound()) {
-                    closest.offer(i, h);
-                }
-            }
-            closest.cutoff()
-        });
-        work.intersection_tests += tests;
-        closest.best()
+        self.closest_hit_grouped(ray, t_max, work, &mut OneByOne(test))
     }
 
     /// [`Octree::closest_hit_with`] for tests that go faster together: a leaf of at least
-    /// [`GROUP`] primitives (more than the build leaves unsplit when it can) is tested by [`GroupTests::test_group`], up to [`GROUP`] at a
-    /// time, a smaller one by [`GroupTests::test`].
+    /// [`GROUP`] primitives (more than the build leaves unsplit where splits pay) is tested by
+    /// [`GroupTests::test_group`], up to [`GROUP`] at a time, a smaller one by
+    /// [`GroupTests::test`].
     pub fn closest_hit_grouped<H: RayHit>(
         &self,
         ray: &Ray,
