@@ -3,6 +3,7 @@
 //!
 //! - [`meshes`]: triangle sets to shoot rays at (random soups, closed jittered spheres, grids on
 //!   octree cell planes) and their bounds.
+//! - [`scenes`]: a lit scene description to add triangles and solids to.
 //! - [`checked`]: a checked render (every pixel's centre ray traced again) and the closest solid
 //!   hit of a ray with its surface.
 //!
@@ -11,3 +12,4 @@
 
 pub mod checked;
 pub mod meshes;
+pub mod scenes;

@@ -10,8 +10,9 @@ use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::render::intersect::QueryScratch;
 use strahl_core::scene::mesh::Rng;
-use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
+use strahl_core_tests::scenes::{add_triangles, lit};
 
 /// A random point of `tri` (barycentrics), with its error bound, as the shader computes it.
 fn point_on(tri: &[Vec3; 3], rng: &mut Rng) -> (Vec3, Vec3) {
@@ -77,22 +78,8 @@ fn a_ray_leaving_a_triangle_never_meets_it() {
 fn shadowed_leaving_a_triangle_answers_as_any_hit() {
     let mut rng = Rng::new(37);
     let tris = triangles(&mut rng);
-    let mut desc = SceneDesc {
-        shaders: vec![Shader::phong(Vec3::ONE, Vec3::ZERO, Vec3::ZERO, 1.0, 0.0)],
-        lights: vec![Light {
-            position: Vec3::new(0.0, 0.0, 10.0),
-            color: Vec3::ONE,
-            amount: 1.0,
-            casts_shadows: true,
-        }],
-        ..SceneDesc::default()
-    };
-    for tri in &tris {
-        let first = desc.points.len() as u32;
-        desc.points.extend_from_slice(tri);
-        desc.triangles
-            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
-    }
+    let mut desc = lit(Vec3::new(0.0, 0.0, 10.0));
+    add_triangles(&mut desc, &tris);
     let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
     let mut scratch = QueryScratch::default();
     let (mut blocked, mut free) = (0, 0);

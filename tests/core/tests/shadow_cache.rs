@@ -8,34 +8,15 @@ use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::QueryScratch;
 use strahl_core::scene::mesh::Rng;
-use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
+use strahl_core_tests::scenes::{add_triangles, lit};
 
 /// Balls, a triangle soup and a floor half-space: every kind of primitive `any_hit` walks.
 fn scene(rng: &mut Rng) -> Scene {
     let soup = random_soup(300, rng);
-    let mut desc = SceneDesc {
-        shaders: vec![Shader::phong(
-            Vec3::splat(0.5),
-            Vec3::ZERO,
-            Vec3::ZERO,
-            1.0,
-            0.0,
-        )],
-        lights: vec![Light {
-            position: Vec3::new(0.0, 6.0, 0.0),
-            color: Vec3::ONE,
-            amount: 1.0,
-            casts_shadows: true,
-        }],
-        ..SceneDesc::default()
-    };
-    for tri in &soup {
-        let first = desc.points.len() as u32;
-        desc.points.extend_from_slice(tri);
-        desc.triangles
-            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
-    }
+    let mut desc = lit(Vec3::new(0.0, 6.0, 0.0));
+    add_triangles(&mut desc, &soup);
     for _ in 0..200 {
         let centre = Vec3::new(
             rng.range(-2.0, 2.0),

@@ -9,8 +9,9 @@ use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::{PrimitiveHit, QueryScratch};
 use strahl_core::scene::mesh::Rng;
-use strahl_core::scene::{Light, Scene, SceneDesc, Shader, TriangleDesc};
+use strahl_core::scene::{Scene, SceneDesc};
 use strahl_core_tests::meshes::random_soup;
+use strahl_core_tests::scenes::{add_triangles, lit};
 
 fn leaf(shape: Shape, transform: Transform) -> SolidNode {
     SolidNode::Leaf {
@@ -23,28 +24,8 @@ fn leaf(shape: Shape, transform: Transform) -> SolidNode {
 /// 1,500 balls along a shrinking spiral, each overlapping hundreds of its neighbours, plus a
 /// triangle soup, cylinders and scaled balls in the same space.
 fn shell(rng: &mut Rng) -> Scene {
-    let mut desc = SceneDesc {
-        shaders: vec![Shader::phong(
-            Vec3::splat(0.5),
-            Vec3::ZERO,
-            Vec3::ZERO,
-            1.0,
-            0.0,
-        )],
-        lights: vec![Light {
-            position: Vec3::new(0.0, 0.0, 10.0),
-            color: Vec3::ONE,
-            amount: 1.0,
-            casts_shadows: true,
-        }],
-        ..SceneDesc::default()
-    };
-    for tri in random_soup(200, rng) {
-        let first = desc.points.len() as u32;
-        desc.points.extend_from_slice(&tri);
-        desc.triangles
-            .push(TriangleDesc::new([first, first + 1, first + 2], 0));
-    }
+    let mut desc = lit(Vec3::new(0.0, 0.0, 10.0));
+    add_triangles(&mut desc, &random_soup(200, rng));
     let add = |desc: &mut SceneDesc, node: SolidNode| {
         desc.objects.push(desc.solids.len() as u32);
         desc.solids.push(node);

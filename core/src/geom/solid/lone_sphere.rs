@@ -252,6 +252,24 @@ mod tests {
         shape::first_crossing(shape, o, d, t_max).map(|(t, e, f)| (t.to_bits(), e.to_bits(), f))
     }
 
+    /// Ray `i` of a test around `centre` at scale `size`: from anywhere within 8 sizes (the
+    /// centre's surroundings included: rays from inside), aimed within 4 sizes of it so about
+    /// half hit, every fifth with a component zero of either sign; and its `t_max`, every third
+    /// infinite. `None` for a zero direction.
+    fn ray_near(rng: &mut Rng, centre: Vec3, size: f32, i: usize) -> Option<(Ray, f32)> {
+        let origin = centre + rng.direction() * rng.range(0.0, 8.0) * size;
+        let mut dir = centre + rng.direction() * rng.range(0.0, 4.0) * size - origin;
+        if i % 5 == 0 {
+            dir[i % 3] = if i % 2 == 0 { 0.0 } else { -0.0 };
+        }
+        let t_max = if i % 3 == 0 {
+            f32::INFINITY
+        } else {
+            rng.range(0.0, 8.0) * size
+        };
+        (dir != Vec3::ZERO).then(|| (Ray::new(origin, dir), t_max))
+    }
+
     #[test]
     fn hits_are_the_nodes_to_the_bit() {
         let mut rng = Rng::new(7);
@@ -267,21 +285,8 @@ mod tests {
             };
             let pl = Placement::new(&Transform::translate(centre));
             let sphere = LoneSphere::of(&shape, &pl, 3).expect("a translated sphere is lone");
-            // From anywhere, the centre's surroundings included (rays from inside); aimed near
-            // the centre so about half hit; some components zero of either sign.
-            let origin = centre + rng.direction() * rng.range(0.0, 8.0);
-            let mut dir = centre + rng.direction() * rng.range(0.0, 4.0) - origin;
-            if i % 5 == 0 {
-                dir[i % 3] = if i % 2 == 0 { 0.0 } else { -0.0 };
-            }
-            if dir == Vec3::ZERO {
+            let Some((ray, t_max)) = ray_near(&mut rng, centre, 1.0, i) else {
                 continue;
-            }
-            let ray = Ray::new(origin, dir);
-            let t_max = if i % 3 == 0 {
-                f32::INFINITY
-            } else {
-                rng.range(0.0, 2.0)
             };
             let got = sphere.first_hit(&ray, t_max);
             assert_eq!(
@@ -318,19 +323,8 @@ mod tests {
                 let sphere = LoneSphere::of(&shape, &pl, 40 + k as u32).expect("lone");
                 group.push(100 + k as u32, sphere);
             }
-            let origin = base * scale + rng.direction() * rng.range(0.0, 6.0) * scale;
-            let mut dir = base * scale + rng.direction() * scale - origin;
-            if i % 7 == 0 {
-                dir[i as usize % 3] = -0.0;
-            }
-            if dir == Vec3::ZERO {
+            let Some((ray, t_max)) = ray_near(&mut rng, base * scale, scale, i as usize) else {
                 continue;
-            }
-            let ray = Ray::new(origin, dir);
-            let t_max = if i % 3 == 0 {
-                f32::INFINITY
-            } else {
-                rng.range(0.5, 8.0) * scale
             };
             let mut one_by_one = Closest::new(t_max);
             for k in 0..len {
