@@ -124,6 +124,62 @@ fn a_small_object_on_a_wide_floor_matches_with_a_grown_root() {
 }
 
 #[test]
+fn a_floor_of_two_triangles_is_kept_out_of_the_tree_and_still_found() {
+    // A floor 100 wide of two triangles under a ball of radius 1: the floor is tested by every
+    // query, the tree divides the ball's box alone.
+    let c = [
+        Vec3::new(50.0, 50.0, 0.0),
+        Vec3::new(-50.0, 50.0, 0.0),
+        Vec3::new(-50.0, -50.0, 0.0),
+        Vec3::new(50.0, -50.0, 0.0),
+    ];
+    let mut tris = vec![[c[0], c[1], c[2]], [c[0], c[2], c[3]]];
+    let ball = positions(&closed_sphere(24, 12, 0.0, &mut Rng::new(6)));
+    tris.extend(
+        ball.into_iter()
+            .map(|t| t.map(|p| p + Vec3::new(0.0, 0.0, 1.0))),
+    );
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    assert_eq!(tree.large(), &[0, 1]);
+    let size = tree.root().max - tree.root().min;
+    assert!(
+        size.max_element() <= 2.01,
+        "root {:?} is not the ball's",
+        tree.root()
+    );
+    assert_eq!(tree.bounds().max.x, 50.0);
+    let hits = compare(&tris, &OctreeParams::default(), 30_000, 16);
+    assert!(hits > 10_000);
+}
+
+#[test]
+fn the_walls_of_a_room_stay_in_the_tree() {
+    // Six walls of two triangles each all span the room: too many to test on every ray.
+    let mut m = MeshBuilder::default();
+    let (o, x, y, z) = (Vec3::ZERO, Vec3::X * 10.0, Vec3::Y * 10.0, Vec3::Z * 10.0);
+    for (origin, u, v) in [
+        (o, x, y),
+        (o, y, z),
+        (o, z, x),
+        (z, x, y),
+        (x, y, z),
+        (y, z, x),
+    ] {
+        m.grid(origin, u, v, 1, 0);
+    }
+    let mut tris = positions(&m);
+    tris.extend(
+        random_soup(200, &mut Rng::new(8))
+            .into_iter()
+            .map(|t| t.map(|p| p + 5.0)),
+    );
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    assert!(tree.large().is_empty(), "{:?}", tree.large());
+    let hits = compare(&tris, &OctreeParams::default(), 20_000, 17);
+    assert!(hits > 10_000);
+}
+
+#[test]
 fn thousands_of_triangles_in_one_spot_match() {
     // A big room around a tiny dense cluster: deep cells, identical and overlapping triangles.
     let mut m = MeshBuilder::default();

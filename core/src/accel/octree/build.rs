@@ -129,8 +129,12 @@ impl Octree {
             max_depth: params.max_depth.min(MAX_DEPTH_LIMIT),
             max_leaf_triangles: params.max_leaf_triangles.max(1),
         };
-        let (filed, boxes, bounds) = filed_primitives(triangles, solids);
-        let root = root_cell(bounds);
+        let (filed, world, boxes) = filed_primitives(triangles, solids);
+        let bounds = union(world.iter().copied());
+        let filed_count = filed.len() as u32;
+        let budget = (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET);
+        let (filed, large, tree_bounds) = set_apart_large(filed, &world, bounds);
+        let root = root_cell(tree_bounds);
         let magnitude = root.min.abs().max(root.max.abs()).max_element();
         let mut b = Builder {
             triangles,
@@ -143,9 +147,8 @@ impl Octree {
             queue: BinaryHeap::new(),
             bytes: 0,
             masks: Vec::new(),
-            budget: (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET),
+            budget,
         };
-        let filed_count = filed.len() as u32;
         b.add_leaf(root, 0, filed);
         while let Some((_, Reverse(node))) = b.queue.pop() {
             if !b.step(node as usize) {
@@ -160,6 +163,7 @@ impl Octree {
             indices,
             bounds,
             root,
+            large,
             stats,
         }
     }
@@ -175,7 +179,9 @@ impl Octree {
 /// cube did about as well on those two but made SPD's gears (4 : 1, flat gears on a floor) 1.5×
 /// slower, as did growing gears' root to 2 : 1 (`docs/performance.md`, fifth round). The surface
 /// area heuristic cannot choose the root's shape: it assumes rays spread evenly over directions,
-/// and judged the flat trees cheaper for tree and balls.
+/// and judged the flat trees cheaper for tree and balls. Since their floors (two triangles) are
+/// set apart ([`set_apart_large`]), those roots are not flat any more; the limit still serves a
+/// floor of many tiles.
 const MAX_ROOT_ASPECT: f32 = 4.0;
 
 /// The root cell around `bounds`: the box itself, grown where it is flatter than
@@ -191,43 +197,91 @@ fn root_cell(bounds: Aabb) -> Aabb {
 /// The smallest budget in bytes, so that small scenes still get a few levels.
 const MIN_BUDGET: usize = 64 * 1024;
 
-/// The primitives to file (non-degenerate triangles, bounded solids), every primitive's box, and
-/// the box around the filed ones.
+/// The primitives to file (non-degenerate triangles, bounded solids) with their world boxes, and
+/// every primitive's box as the build files it (a solid's by where its test can hit).
 fn filed_primitives(
     triangles: &[[Vec3; 3]],
     solids: &[SolidExtent],
-) -> (Vec<u32>, Vec<Aabb>, Aabb) {
-    let mut bounds = Aabb::EMPTY;
+) -> (Vec<u32>, Vec<Aabb>, Vec<Aabb>) {
     let mut filed = Vec::with_capacity(triangles.len() + solids.len());
+    let mut world = Vec::with_capacity(triangles.len() + solids.len());
     let mut boxes = Vec::with_capacity(triangles.len() + solids.len());
     for (i, p) in triangles.iter().enumerate() {
         let b = Aabb::of_triangle(p);
         boxes.push(b);
         if unit_normal(p).is_some() {
             filed.push(i as u32);
-            bounds.min = bounds.min.min(b.min);
-            bounds.max = bounds.max.max(b.max);
+            world.push(b);
         }
     }
     for (j, solid) in solids.iter().enumerate() {
         match solid.bounds().zip(solid.reach()) {
             Some((b, reach)) => {
-                // Filed by where its test can hit; the root's box is the world boxes'.
                 boxes.push(reach);
                 filed.push((triangles.len() + j) as u32);
-                bounds.min = bounds.min.min(b.min);
-                bounds.max = bounds.max.max(b.max);
+                world.push(b);
             }
             None => boxes.push(Aabb::EMPTY),
         }
     }
-    if bounds.is_empty() {
-        bounds = Aabb {
+    (filed, world, boxes)
+}
+
+/// The box around `boxes`; a point at the origin if there are none.
+fn union(boxes: impl Iterator<Item = Aabb>) -> Aabb {
+    let mut u = Aabb::EMPTY;
+    for b in boxes {
+        u.min = u.min.min(b.min);
+        u.max = u.max.max(b.max);
+    }
+    if u.is_empty() {
+        u = Aabb {
             min: Vec3::ZERO,
             max: Vec3::ZERO,
         };
     }
-    (filed, boxes, bounds)
+    u
+}
+
+/// The most primitives [`set_apart_large`] keeps out of the tree: a floor or a backdrop of a few
+/// triangles. A room's walls are more, and stay in it.
+const MAX_LARGE: usize = 4;
+
+/// Splits the primitives `filed` (world boxes `world`) into those the tree files and the large
+/// ones every query tests before its walk: those whose box spans at least half of `bounds` (the
+/// box around all) along two axes, if there are at most [`MAX_LARGE`] of them and others
+/// remain. Returns both lists and the box around the tree's.
+///
+/// A floor under a small object (SPD's tree: a floor 100 wide under a tree 3 tall) is filed in
+/// every cell along it and makes the root as wide as itself, so a ray at the object descends
+/// five levels of floor cells before it reaches the object's scale. Tested by every query
+/// instead, it costs one or two tests per ray, and a closest hit on it bounds the walk.
+fn set_apart_large(filed: Vec<u32>, world: &[Aabb], bounds: Aabb) -> (Vec<u32>, Vec<u32>, Aabb) {
+    let half = (bounds.max - bounds.min) * 0.5;
+    let large = |b: &Aabb| {
+        let spans = (b.max - b.min).cmpge(half) & half.cmpgt(Vec3::ZERO);
+        spans.bitmask().count_ones() >= 2
+    };
+    let count = world.iter().filter(|b| large(b)).count();
+    if count == 0 || count > MAX_LARGE || count == filed.len() {
+        return (filed, Vec::new(), bounds);
+    }
+    let (mut tree, mut apart) = (Vec::new(), Vec::new());
+    for (&i, b) in filed.iter().zip(world) {
+        if large(b) {
+            apart.push(i);
+        } else {
+            tree.push(i);
+        }
+    }
+    let tree_bounds = union(
+        filed
+            .iter()
+            .zip(world)
+            .filter(|(_, b)| !large(b))
+            .map(|(_, b)| *b),
+    );
+    (tree, apart, tree_bounds)
 }
 
 impl Builder<'_> {

@@ -6,8 +6,10 @@
 //!   and addressed by the index of the first. A leaf is a range of [`Octree::indices`], the
 //!   triangle indices reordered so each leaf's are contiguous. A node is 8 bytes; child boxes are
 //!   not stored but derived from the parent's by halving.
-//! - The root cell is the box around the filed primitives, grown along its short sides where it
-//!   is flatter than 4 : 1 (every cell has the root's shape; see `build.rs`).
+//! - A few large primitives (a floor under a small object) are kept out of the tree and tested
+//!   by every query before its walk. The root cell is the box around the rest, grown along its
+//!   short sides where it is flatter than 4 : 1 (every cell has the root's shape; see
+//!   `build.rs`).
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
 //!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
 //!   child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by its
@@ -142,8 +144,12 @@ pub struct Octree {
     indices: Vec<u32>,
     /// The box around every filed primitive.
     bounds: Aabb,
-    /// The root cell: `bounds`, grown where it is much flatter than a cube (see `build.rs`).
+    /// The root cell: the box around the primitives in the tree, grown where it is much flatter
+    /// than a cube (see `build.rs`).
     root: Aabb,
+    /// Large primitives kept out of the tree (a floor under a small object), tested by every
+    /// query before its walk.
+    large: Vec<u32>,
     stats: OctreeStats,
 }
 
@@ -185,10 +191,15 @@ impl Octree {
         self.bounds
     }
 
-    /// The root cell, which the cells of the tree divide: [`Octree::bounds`], grown along its
-    /// short sides where it is much flatter than a cube.
+    /// The root cell, which the cells of the tree divide: the box around the primitives in the
+    /// tree, grown along its short sides where it is much flatter than a cube.
     pub fn root(&self) -> Aabb {
         self.root
+    }
+
+    /// The large primitives kept out of the tree, tested by every query before its walk.
+    pub fn large(&self) -> &[u32] {
+        &self.large
     }
 
     /// The node array (root at index 0).

@@ -175,9 +175,15 @@ impl Octree {
         tests_of: &mut impl GroupTests<H>,
     ) -> Option<(u32, H)> {
         let mut closest = Closest::new(t_max);
+        for &i in &self.large {
+            if let Some(h) = tests_of.test(i, closest.bound()) {
+                closest.offer(i, h);
+            }
+        }
         let mut mailbox = Mailbox::new();
-        let mut tests = 0u64;
-        work.octree_cells += self.walk(ray, t_max, |indices| {
+        let mut tests = self.large.len() as u64;
+        // A hit on a large primitive already bounds the walk.
+        work.octree_cells += self.walk(ray, t_max.min(closest.cutoff()), |indices| {
             if indices.len() < GROUP {
                 for &i in indices {
                     if mailbox.first_visit(i) {
@@ -243,9 +249,16 @@ impl Octree {
         work: &mut QueryWork,
         mut test: impl FnMut(u32) -> bool,
     ) -> bool {
-        let mut found = false;
-        let mut mailbox = Mailbox::new();
         let mut tests = 0u64;
+        let mut found = self.large.iter().any(|&i| {
+            tests += 1;
+            test(i)
+        });
+        if found {
+            work.intersection_tests += tests;
+            return true;
+        }
+        let mut mailbox = Mailbox::new();
         work.octree_cells += self.walk(ray, t_max, |indices| {
             found = indices.iter().any(|&i| {
                 let first = mailbox.first_visit(i);
