@@ -123,18 +123,29 @@ pub fn in_front(t: f32, t_error: f32) -> bool {
 
 /// The first crossing of the ray `o + t·d` with `shape`'s surface in front of its origin (beyond
 /// the crossing's error bound) and below `t_max`, as `(t, t_error, face)`: exactly the first
-/// front end of [`span`], found with less work. A sphere's roots are compared with `t_max`
-/// before any error bound is computed, and the exit's bound only when the entry is behind.
+/// front end of [`span`], found with less work. A sphere's roots and a cylinder's ends are
+/// compared with `t_max` before any error bound is computed, and the exit's bound only when the
+/// entry is behind.
 #[inline]
 pub fn first_crossing(shape: &Shape, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, f32, Face)> {
-    let Shape::Sphere { radius } = *shape else {
-        let s = span(shape, o, d)?;
-        let first = [s.enter, s.exit]
-            .into_iter()
-            .find(|c| in_front(c.t, c.t_error))?;
-        return (first.t < t_max).then_some((first.t, first.t_error, first.face));
-    };
-    sphere_first_crossing(radius, o, d, t_max)
+    match *shape {
+        Shape::Sphere { radius } => sphere_first_crossing(radius, o, d, t_max),
+        Shape::Cylinder {
+            bottom_radius,
+            top_radius,
+            height,
+        } => {
+            let ends = cylinder_ends(bottom_radius, top_radius, height, o, d)?;
+            first_end_in_front(o, d, ends, t_max)
+        }
+        _ => {
+            let s = span(shape, o, d)?;
+            let first = [s.enter, s.exit]
+                .into_iter()
+                .find(|c| in_front(c.t, c.t_error))?;
+            (first.t < t_max).then_some((first.t, first.t_error, first.face))
+        }
+    }
 }
 
 /// [`first_crossing`] for the sphere of radius `radius` around the origin.
@@ -353,17 +364,7 @@ fn touching(enter: Crossing, mut exit: Crossing) -> Option<ShapeSpan> {
 }
 
 fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
-    let half = 0.5 * h;
-    let (mut lo, mut hi, mut lo_face, mut hi_face) = cap_slab(o, d, half)?;
-    let (side_lo, side_hi) = cone_side(r0, r1, h, o, d, (lo, hi))?;
-    if side_lo > lo {
-        lo = side_lo;
-        lo_face = 0;
-    }
-    if side_hi < hi {
-        hi = side_hi;
-        hi_face = 0;
-    }
+    let (lo, hi, lo_face, hi_face) = cylinder_ends(r0, r1, h, o, d)?;
     let along = |t: f32, face: Face| {
         if face == 0 {
             let p = o + d * t;
@@ -383,6 +384,57 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
     let enter = crossing(o, d, lo, lo_face, along(lo, lo_face));
     let exit = crossing(o, d, hi, hi_face, along(hi, hi_face));
     touching(enter, exit)
+}
+
+/// Where the ray enters and leaves a cylinder or cone, `(lo, hi, lo_face, hi_face)`, before the
+/// crossings' error bounds: the caps' slab cut by the side's span.
+#[inline]
+fn cylinder_ends(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<(f32, f32, Face, Face)> {
+    let half = 0.5 * h;
+    let (mut lo, mut hi, mut lo_face, mut hi_face) = cap_slab(o, d, half)?;
+    let (side_lo, side_hi) = cone_side(r0, r1, h, o, d, (lo, hi))?;
+    if side_lo > lo {
+        lo = side_lo;
+        lo_face = 0;
+    }
+    if side_hi < hi {
+        hi = side_hi;
+        hi_face = 0;
+    }
+    Some((lo, hi, lo_face, hi_face))
+}
+
+/// Of the ends `(lo, hi, lo_face, hi_face)` of a span, the first in front of the origin if it
+/// is below `t_max`: what [`span`] and [`touching`] give, with each end's error bound computed
+/// only when it is looked at, and without the merge bounds (and the normals they need), which
+/// only CSG uses.
+#[inline]
+fn first_end_in_front(
+    o: Vec3,
+    d: Vec3,
+    (lo, hi, lo_face, hi_face): (f32, f32, Face, Face),
+    t_max: f32,
+) -> Option<(f32, f32, Face)> {
+    if lo >= t_max {
+        // Both ends are at or past t_max (an exit merged into the entry takes the entry's t).
+        return None;
+    }
+    let enter_error = crossing_error(o, d, lo);
+    let exit_t = if lo <= hi {
+        hi
+    } else {
+        let exit_error = crossing_error(o, d, hi);
+        if lo <= hi + exit_error + enter_error {
+            lo
+        } else {
+            return None;
+        }
+    };
+    if in_front(lo, enter_error) {
+        return (lo < t_max).then_some((lo, enter_error, lo_face));
+    }
+    let exit_error = crossing_error(o, d, hi);
+    (in_front(exit_t, exit_error) && exit_t < t_max).then_some((exit_t, exit_error, hi_face))
 }
 
 /// The span of `t` between a cylinder's caps at `y = ±half`, with the faces (1 bottom, 2 top)
