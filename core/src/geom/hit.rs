@@ -37,7 +37,7 @@ pub fn closer<H: RayHit>(t: f32, index: u32, best: &Option<(u32, H)>) -> bool {
 
 /// The most primitives a grouped test gets at once (the octree's `closest_hit_grouped` hands
 /// a large leaf's primitives to its tests this many at a time).
-pub const GROUP: usize = 8;
+pub const GROUP: usize = 16;
 
 /// The closest hit a query has found so far, and the bound it puts on the tests still to come.
 #[derive(Clone, Copy, Debug)]
