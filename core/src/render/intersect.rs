@@ -104,7 +104,8 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
             }
         }
         if !self.spheres.is_empty() {
-            (self.spheres).test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
+            self.spheres
+                .test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
         }
     }
 }
