@@ -1,15 +1,15 @@
 //! The scene's ray queries over every primitive: triangles and bounded solids through the octree,
 //! unbounded solids (half-spaces) beside it.
 //!
-//! Where the octree's leaves are large (many overlapping spheres), the closest-hit query tests
-//! lone spheres in groups ([`SphereGroup`]), to the same hits.
+//! Where the octree's leaves are large (many overlapping spheres), the closest-hit and shadow
+//! queries test lone spheres in groups ([`SphereGroup`]), to the same answers.
 //!
 //! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
 //! smallest primitive index (triangles first, then solids), so every machine picks the same one.
 //! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
 //! [`QueryWork`].
 
-use crate::accel::octree::GroupTests;
+use crate::accel::octree::{GroupBlocks, GroupTests};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
@@ -107,6 +107,53 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
             self.spheres
                 .test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
         }
+    }
+}
+
+/// One shadow query's tests for [`Octree::any_hit_grouped`]: lone spheres in groups, the rest
+/// one by one, and never `leaving`, the triangle the ray starts from (see [`Scene::shadowed`]).
+struct SceneBlocks<'a> {
+    scene: &'a Scene,
+    frame: &'a QueryFrame,
+    ray: &'a Ray,
+    t_max: f32,
+    spans: &'a mut SpanScratch,
+    /// Made when a leaf is first tested as a group.
+    spheres: Option<SphereGroup>,
+    leaving: Option<u32>,
+}
+
+impl GroupBlocks for SceneBlocks<'_> {
+    #[inline(always)]
+    fn blocks(&mut self, i: u32) -> bool {
+        Some(i) != self.leaving
+            && self
+                .scene
+                .blocks(self.frame, self.ray, i, self.t_max, self.spans)
+    }
+
+    #[inline]
+    fn blocks_group(&mut self, group: &[u32]) -> Option<u32> {
+        let n = self.scene.triangle_points.len() as u32;
+        let mut spheres = self.spheres.take().unwrap_or_default();
+        spheres.clear();
+        let mut found = None;
+        for &i in group {
+            match i
+                .checked_sub(n)
+                .and_then(|j| self.scene.solids.lone_sphere(j))
+            {
+                Some(sphere) => spheres.push(i, sphere),
+                None if self.blocks(i) => {
+                    found = Some(i);
+                    break;
+                }
+                None => {}
+            }
+        }
+        let found = found.or_else(|| spheres.blocks(self.ray, self.t_max));
+        self.spheres = Some(spheres);
+        found
     }
 }
 
@@ -228,20 +275,39 @@ impl Scene {
                 return true;
             }
         }
-        let mut blocker = None;
-        let mut test = |i: u32| {
-            let hit = Some(i) != leaving && self.blocks(&frame, ray, i, t_max, spans);
-            if hit {
-                blocker = Some(i);
-            }
-            hit
+        let mut tests = SceneBlocks {
+            scene: self,
+            frame: &frame,
+            ray,
+            t_max,
+            spans,
+            spheres: None,
+            leaving,
         };
-        let found = self.octree.any_hit_with(ray, t_max, work, &mut test)
-            || self.unbounded_block(work, &mut test);
+        let blocker = if self.group_spheres {
+            self.octree.any_hit_grouped(ray, t_max, work, &mut tests)
+        } else {
+            let mut blocker = None;
+            let found = self.octree.any_hit_with(ray, t_max, work, |i| {
+                let hit = tests.blocks(i);
+                blocker = blocker.or(hit.then_some(i));
+                hit
+            });
+            blocker.filter(|_| found)
+        };
+        let blocker = blocker.or_else(|| {
+            let mut blocker = None;
+            self.unbounded_block(work, &mut |i| {
+                let hit = tests.blocks(i);
+                blocker = blocker.or(hit.then_some(i));
+                hit
+            });
+            blocker
+        });
         if blocker.is_some() {
             *last = blocker;
         }
-        found
+        blocker.is_some()
     }
 
     /// True if `ray` hits any primitive provably before `t_max`: `0 < t` and

@@ -102,3 +102,43 @@ fn grouped_closest_hits_are_the_one_by_one_hits() {
         "{solids} solid and {triangles} triangle hits"
     );
 }
+
+#[test]
+fn grouped_shadow_rays_are_blocked_as_one_by_one() {
+    let mut rng = Rng::new(29);
+    let grouped = shell(&mut rng);
+    assert!(grouped.group_spheres, "the shell's leaves are not grouped");
+    let mut single = grouped.clone();
+    single.group_spheres = false;
+    let mut scratch = QueryScratch::default();
+    let (mut blocked, mut free) = (0, 0);
+    for i in 0..20_000 {
+        // Between points in and around the shell: from its surface out, through it, and past it.
+        let from = Vec3::new(
+            rng.range(-1.2, 1.2),
+            rng.range(-1.2, 1.2),
+            rng.range(0.0, 6.0),
+        );
+        let to = rng.direction() * rng.range(0.5, 8.0) + Vec3::new(0.0, 0.0, 3.0);
+        let ray = Ray::new(from, to - from);
+        let expected = single.any_hit(&ray, 1.0, &mut scratch);
+        let (mut last, mut last_single) = (None, None);
+        let got = grouped.shadowed(&ray, 1.0, &mut scratch, (&mut last, None));
+        let one_by_one = single.shadowed(&ray, 1.0, &mut scratch, (&mut last_single, None));
+        assert_eq!(got, expected, "ray {i}: {ray:?}");
+        assert_eq!(one_by_one, expected, "ray {i}: {ray:?}");
+        // What the grouped query remembers really blocks the ray.
+        if let Some(b) = last {
+            assert!(single.shadowed(&ray, 1.0, &mut scratch, (&mut Some(b), None)));
+        }
+        if expected {
+            blocked += 1;
+        } else {
+            free += 1;
+        }
+    }
+    assert!(
+        blocked > 2_000 && free > 2_000,
+        "{blocked} blocked, {free} free"
+    );
+}

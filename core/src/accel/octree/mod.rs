@@ -18,8 +18,8 @@
 //!   from one side is filed on that side alone.
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray
-//!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` hands a
-//!   large leaf's primitives to its tests [`GROUP`] at a time.
+//!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` and
+//!   `any_hit_grouped` hand a large leaf's primitives to their tests [`GROUP`] at a time.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
 //!
 //! The closest hit is the smallest `t`, ties going to the smallest triangle index; the octree
@@ -35,7 +35,7 @@ pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod traverse;
 pub use crate::geom::hit::GROUP;
-pub use traverse::GroupTests;
+pub use traverse::{GroupBlocks, GroupTests};
 
 use crate::geom::hit::closer;
 use crate::geom::triangle::{intersect, RayFrame, TriangleHit};

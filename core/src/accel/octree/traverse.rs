@@ -71,8 +71,29 @@ pub trait GroupTests<H> {
     fn test_group(&mut self, group: &[u32], closest: &mut Closest<H>);
 }
 
-/// [`GroupTests`] that test a group one primitive at a time.
+/// How [`Octree::any_hit_grouped`] tests the primitives of a leaf.
+pub trait GroupBlocks {
+    /// True if primitive `index` blocks the ray.
+    fn blocks(&mut self, index: u32) -> bool;
+    /// A primitive of `group` (at most [`GROUP`], each new to the query) that blocks the ray,
+    /// if any.
+    fn blocks_group(&mut self, group: &[u32]) -> Option<u32>;
+}
+
+/// [`GroupTests`] and [`GroupBlocks`] that test a group one primitive at a time.
 struct OneByOne<F>(F);
+
+impl<F: FnMut(u32) -> bool> GroupBlocks for OneByOne<F> {
+    #[inline(always)]
+    fn blocks(&mut self, index: u32) -> bool {
+        (self.0)(index)
+    }
+
+    #[inline(always)]
+    fn blocks_group(&mut self, group: &[u32]) -> Option<u32> {
+        group.iter().copied().find(|&i| (self.0)(i))
+    }
+}
 
 impl<H: RayHit, F: FnMut(u32, f32) -> Option<H>> GroupTests<H> for OneByOne<F> {
     #[inline(always)]
@@ -247,25 +268,63 @@ impl Octree {
         ray: &Ray,
         t_max: f32,
         work: &mut QueryWork,
-        mut test: impl FnMut(u32) -> bool,
+        test: impl FnMut(u32) -> bool,
     ) -> bool {
+        self.any_hit_grouped(ray, t_max, work, &mut OneByOne(test))
+            .is_some()
+    }
+
+    /// [`Octree::any_hit_with`] for tests that go faster together, as in
+    /// [`Octree::closest_hit_grouped`]: a leaf of at least [`GROUP`] primitives is tested by
+    /// [`GroupBlocks::blocks_group`], up to [`GROUP`] at a time, a smaller one by
+    /// [`GroupBlocks::blocks`]. Returns the blocker found.
+    pub fn any_hit_grouped(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        work: &mut QueryWork,
+        tests_of: &mut impl GroupBlocks,
+    ) -> Option<u32> {
         let mut tests = 0u64;
-        let mut found = self.large.iter().any(|&i| {
+        let mut found = self.large.iter().copied().find(|&i| {
             tests += 1;
-            test(i)
+            tests_of.blocks(i)
         });
-        if found {
+        if found.is_some() {
             work.intersection_tests += tests;
-            return true;
+            return found;
         }
         let mut mailbox = Mailbox::new();
         work.octree_cells += self.walk(ray, t_max, |indices| {
-            found = indices.iter().any(|&i| {
-                let first = mailbox.first_visit(i);
-                tests += u64::from(first);
-                first && test(i)
-            });
-            if found {
+            if indices.len() < GROUP {
+                found = indices.iter().copied().find(|&i| {
+                    let first = mailbox.first_visit(i);
+                    tests += u64::from(first);
+                    first && tests_of.blocks(i)
+                });
+            } else {
+                let mut group = [0u32; GROUP];
+                let mut n = 0;
+                for &i in indices {
+                    if mailbox.first_visit(i) {
+                        group[n] = i;
+                        n += 1;
+                        if n == GROUP {
+                            tests += GROUP as u64;
+                            found = tests_of.blocks_group(&group);
+                            n = 0;
+                            if found.is_some() {
+                                break;
+                            }
+                        }
+                    }
+                }
+                if found.is_none() && n > 0 {
+                    tests += n as u64;
+                    found = tests_of.blocks_group(&group[..n]);
+                }
+            }
+            if found.is_some() {
                 f32::NEG_INFINITY
             } else {
                 f32::INFINITY

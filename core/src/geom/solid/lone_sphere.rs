@@ -153,6 +153,38 @@ impl SphereGroup {
     }
 }
 
+impl SphereGroup {
+    /// The index of a sphere of the group that blocks `ray` provably before `t_max` (`0 < t`
+    /// and `t + t_error < t_max`, as [`LoneSphere::first_hit`] finds `t`), if any.
+    #[inline]
+    pub fn blocks(&self, ray: &Ray, t_max: f32) -> Option<u32> {
+        let blocking = |h: (f32, f32)| h.0 + h.1 < t_max;
+        if self.len < GROUP / 2 {
+            let mut pairs = self.spheres.iter().zip(&self.indices).take(self.len);
+            return pairs
+                .find(|(sphere, _)| {
+                    sphere
+                        .first_hit(ray, t_max)
+                        .is_some_and(|h| blocking((h.t, h.t_error)))
+                })
+                .map(|(_, &i)| i);
+        }
+        let d = Mat3::IDENTITY * ray.dir;
+        let lanes = Lanes::new(&self.spheres, ray.origin);
+        let (t0, t1, mut may_hit) = lanes.roots(d, self.len, t_max);
+        while may_hit != 0 {
+            let k = may_hit.trailing_zeros() as usize;
+            may_hit &= may_hit - 1;
+            let o = Vec3::new(lanes.x[k], lanes.y[k], lanes.z[k]);
+            let found = shape::first_root_in_front(o, d, (t0[k], t1[k]), t_max);
+            if found.is_some_and(|(t, t_error, _)| blocking((t, t_error))) {
+                return Some(self.indices[k]);
+            }
+        }
+        None
+    }
+}
+
 impl Default for SphereGroup {
     fn default() -> Self {
         SphereGroup::new()
