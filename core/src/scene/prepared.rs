@@ -51,10 +51,10 @@ pub struct Scene {
     /// The acceleration structure over triangles and bounded solids.
     pub octree: Octree,
     /// Whether closest-hit and shadow queries test lone spheres in groups
-    /// ([`Octree::closest_hit_grouped`], [`Octree::any_hit_grouped`]): where the octree's occupied leaves hold
-    /// [`GROUP`] primitives or more on average (SPD's shells: 62 and 203), as many
-    /// overlapping spheres do. Where leaves are small (2 to 5 on SPD's other scenes) a leaf
-    /// seldom fills a group and the grouped walk cost 2 to 4 % more.
+    /// ([`Octree::closest_hit_grouped`], [`Octree::any_hit_grouped`]): where the octree's
+    /// occupied leaves hold [`GROUP`] primitives or more on average (SPD's shells: 62 and 203),
+    /// as many overlapping spheres do. Where leaves are small (2 to 5 on SPD's other scenes) a
+    /// leaf seldom fills a group and the grouped walk cost 2 to 4 % more.
     pub group_spheres: bool,
 }
 
