@@ -57,13 +57,19 @@ fn key(h: Option<PrimitiveHit>) -> Option<(u32, u32, u32)> {
     })
 }
 
-#[test]
-fn grouped_closest_hits_are_the_one_by_one_hits() {
-    let mut rng = Rng::new(23);
-    let grouped = shell(&mut rng);
+/// The shell twice: testing lone spheres in groups, and one by one.
+fn grouped_and_single(rng: &mut Rng) -> (Scene, Scene) {
+    let grouped = shell(rng);
     assert!(grouped.group_spheres, "the shell's leaves are not grouped");
     let mut single = grouped.clone();
     single.group_spheres = false;
+    (grouped, single)
+}
+
+#[test]
+fn grouped_closest_hits_are_the_one_by_one_hits() {
+    let mut rng = Rng::new(23);
+    let (grouped, single) = grouped_and_single(&mut rng);
     let mut scratch = QueryScratch::default();
     let (mut solids, mut triangles) = (0, 0);
     for i in 0..20_000 {
@@ -106,10 +112,7 @@ fn grouped_closest_hits_are_the_one_by_one_hits() {
 #[test]
 fn grouped_shadow_rays_are_blocked_as_one_by_one() {
     let mut rng = Rng::new(29);
-    let grouped = shell(&mut rng);
-    assert!(grouped.group_spheres, "the shell's leaves are not grouped");
-    let mut single = grouped.clone();
-    single.group_spheres = false;
+    let (grouped, single) = grouped_and_single(&mut rng);
     let mut scratch = QueryScratch::default();
     let (mut blocked, mut free) = (0, 0);
     for i in 0..20_000 {

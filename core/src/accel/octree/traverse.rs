@@ -111,6 +111,32 @@ impl<H: RayHit, F: FnMut(u32, f32) -> Option<H>> GroupTests<H> for OneByOne<F> {
     }
 }
 
+/// Hands the primitives of a leaf, `indices`, that are new to the query (`mailbox`) to `test`
+/// up to [`GROUP`] at a time, until `test` says to stop; returns how many it handed.
+#[inline(always)]
+fn in_groups(indices: &[u32], mailbox: &mut Mailbox, mut test: impl FnMut(&[u32]) -> bool) -> u64 {
+    let mut group = [0u32; GROUP];
+    let (mut n, mut handed) = (0, 0u64);
+    for &i in indices {
+        if mailbox.first_visit(i) {
+            group[n] = i;
+            n += 1;
+            if n == GROUP {
+                handed += GROUP as u64;
+                n = 0;
+                if test(&group) {
+                    return handed;
+                }
+            }
+        }
+    }
+    if n > 0 {
+        handed += n as u64;
+        test(&group[..n]);
+    }
+    handed
+}
+
 /// A cell waiting on the walk's stack: its node, the ray's interval `[t0, t1]` in it, its depth
 /// and which child of its parent it is. Its box is not stored: it is derived from the parent's
 /// when the cell is entered (see [`Path`]), so leaves and skipped cells never compute one.
@@ -216,23 +242,10 @@ impl Octree {
                 }
                 return closest.cutoff();
             }
-            let mut group = [0u32; GROUP];
-            let mut n = 0;
-            for &i in indices {
-                if mailbox.first_visit(i) {
-                    group[n] = i;
-                    n += 1;
-                    if n == GROUP {
-                        tests_of.test_group(&group, &mut closest);
-                        tests += GROUP as u64;
-                        n = 0;
-                    }
-                }
-            }
-            if n > 0 {
-                tests_of.test_group(&group[..n], &mut closest);
-                tests += n as u64;
-            }
+            tests += in_groups(indices, &mut mailbox, |group| {
+                tests_of.test_group(group, &mut closest);
+                false
+            });
             closest.cutoff()
         });
         work.intersection_tests += tests;
@@ -303,26 +316,10 @@ impl Octree {
                     first && tests_of.blocks(i)
                 });
             } else {
-                let mut group = [0u32; GROUP];
-                let mut n = 0;
-                for &i in indices {
-                    if mailbox.first_visit(i) {
-                        group[n] = i;
-                        n += 1;
-                        if n == GROUP {
-                            tests += GROUP as u64;
-                            found = tests_of.blocks_group(&group);
-                            n = 0;
-                            if found.is_some() {
-                                break;
-                            }
-                        }
-                    }
-                }
-                if found.is_none() && n > 0 {
-                    tests += n as u64;
-                    found = tests_of.blocks_group(&group[..n]);
-                }
+                tests += in_groups(indices, &mut mailbox, |group| {
+                    found = tests_of.blocks_group(group);
+                    found.is_some()
+                });
             }
             if found.is_some() {
                 f32::NEG_INFINITY
