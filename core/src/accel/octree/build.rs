@@ -266,7 +266,7 @@ fn set_apart_large(filed: Vec<u32>, world: &[Aabb], bounds: Aabb) -> (Vec<u32>, 
     if count == 0 || count > MAX_LARGE || count == filed.len() {
         return (filed, Vec::new(), bounds);
     }
-    let (mut tree, mut apart) = (Vec::new(), Vec::new());
+    let (mut tree, mut apart) = (Vec::with_capacity(filed.len() - count), Vec::new());
     for (&i, b) in filed.iter().zip(world) {
         if large(b) {
             apart.push(i);
@@ -274,13 +274,7 @@ fn set_apart_large(filed: Vec<u32>, world: &[Aabb], bounds: Aabb) -> (Vec<u32>, 
             tree.push(i);
         }
     }
-    let tree_bounds = union(
-        filed
-            .iter()
-            .zip(world)
-            .filter(|(_, b)| !large(b))
-            .map(|(_, b)| *b),
-    );
+    let tree_bounds = union(world.iter().copied().filter(|b| !large(b)));
     (tree, apart, tree_bounds)
 }
 
