@@ -12,8 +12,8 @@
 //!   `build.rs`).
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
 //!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
-//!   child cell it touches (exact separating-axis test, in `overlap.rs`, on a box grown by its
-//!   error bound), a sphere standing alone in every cell its surface passes through, and other
+//!   child cell it touches (`filing.rs`: exact separating-axis test, in `overlap.rs`, on a box
+//!   grown by its error bound), a sphere standing alone in every cell its surface passes through, and other
 //!   solids in every cell their reject box touches; a primitive that only touches a centre plane
 //!   from one side is filed on that side alone.
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
@@ -31,6 +31,7 @@
 //! at face edges at grazing angles, with this filing and with the margin-grown one before it).
 
 mod build;
+mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod traverse;
@@ -210,5 +211,15 @@ impl Octree {
     /// The reordered triangle index list that leaves point into.
     pub fn indices(&self) -> &[u32] {
         &self.indices
+    }
+}
+
+/// The box of child `c` of `cell` split at `mid`: bit `a` of `c` selects the upper half on axis `a`.
+#[inline]
+fn child_box(cell: &Aabb, mid: Vec3, c: usize) -> Aabb {
+    let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+    Aabb {
+        min: Vec3::select(upper, mid, cell.min),
+        max: Vec3::select(upper, cell.max, mid),
     }
 }

@@ -11,7 +11,7 @@
 //! hold no box: a cell's box is cut from its parent's when it is entered, with the build's own
 //! `child_box`, so the walk's cells are the build's to the bit.
 
-use super::build::child_box;
+use super::child_box;
 use super::{Hit, Octree, MAX_DEPTH_LIMIT};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{Closest, RayHit, GROUP};

@@ -1,0 +1,318 @@
+//! Which children of a cell a primitive is filed in when the cell is split.
+//!
+//! [`ChildCells`] holds a cell's eight children as the tests need them (their boxes grown by the
+//! build's margin, and per axis the two grown halves); [`Filing`] holds the primitives and
+//! answers [`Filing::children_touched`]. The answer for one primitive comes in three steps, each
+//! exact, from cheap to dear:
+//! 1. Its box against the centre planes (exact comparisons, no margin) gives the candidate
+//!    children. A box on one side of every plane has one candidate, and the parent's test
+//!    already said the primitive touches the parent, so that is the answer.
+//! 2. For a triangle, every child whose grown box holds one of its vertices is touched: each
+//!    vertex is placed in the grown halves of each axis (twelve comparisons per vertex, against
+//!    six per vertex and child before).
+//! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
+//!    sphere-surface test (lone spheres) or the box test (other solids).
+//!
+//! A triangle touches a child exactly when the child's grown box (its sides included) holds a
+//! vertex or the separating-axis test finds no separating axis: the answer the build gave when
+//! it tested every candidate child vertex by vertex, so the trees are the same to the node.
+
+use super::child_box;
+use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
+use crate::geom::solid::extent::SolidExtent;
+use crate::math::aabb::Aabb;
+use alloc::vec::Vec;
+use glam::Vec3;
+
+/// Per axis, the children on its upper side (bit `a` of the child's index set).
+const UPPER: [u8; 3] = [0xAA, 0xCC, 0xF0];
+
+/// The eight children of a cell split at its centre, as the filing tests need them.
+pub(super) struct ChildCells {
+    mid: Vec3,
+    /// Each child's box.
+    boxes: [Aabb; 8],
+    /// Each child's box grown by the margin: (lower corner, upper corner).
+    grown: [(Vec3, Vec3); 8],
+    /// Per axis, the lower and the upper half of the cell grown by the margin, as (low, high):
+    /// the same numbers as the grown boxes' sides on that axis.
+    halves: [[(f32, f32); 2]; 3],
+}
+
+impl ChildCells {
+    /// The children of `cell`, each grown by `margin`.
+    pub(super) fn new(cell: &Aabb, margin: f32) -> ChildCells {
+        let mid = cell.center();
+        let m = Vec3::splat(margin);
+        let boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
+        let grown = boxes.map(|b| (b.min - m, b.max + m));
+        let (lower, upper) = (grown[0], grown[7]);
+        let halves = core::array::from_fn(|a| [(lower.0[a], lower.1[a]), (upper.0[a], upper.1[a])]);
+        ChildCells {
+            mid,
+            boxes,
+            grown,
+            halves,
+        }
+    }
+
+    /// The children whose grown box holds the point `v` (bit `c` for child `c`): per axis the
+    /// halves that hold its coordinate, intersected over the axes.
+    #[inline]
+    fn holding(&self, v: Vec3) -> u8 {
+        let mut mask = 0xFFu8;
+        for (a, &[(lo_l, hi_l), (lo_u, hi_u)]) in self.halves.iter().enumerate() {
+            let lower = if v[a] >= lo_l && v[a] <= hi_l {
+                !UPPER[a]
+            } else {
+                0
+            };
+            let upper = if v[a] >= lo_u && v[a] <= hi_u {
+                UPPER[a]
+            } else {
+                0
+            };
+            mask &= lower | upper;
+        }
+        mask
+    }
+
+    /// The children the box `b` may reach, by exact comparisons with the centre planes, and
+    /// whether it straddles one of them. A box on one side of a plane, touching it or lying in
+    /// it, goes to that side only: its points on the plane are in that side's closed cells too,
+    /// and the walk visits the cells on both sides of every point of a ray's path that lies on a
+    /// centre plane (see `traverse.rs`).
+    #[inline]
+    fn candidates(&self, b: &Aabb) -> (u8, bool) {
+        let mut candidates = 0xFFu8;
+        let mut straddles = false;
+        for (a, &upper) in UPPER.iter().enumerate() {
+            let lo = b.min[a] < self.mid[a];
+            let hi = b.max[a] > self.mid[a] || !lo;
+            straddles |= lo && hi;
+            candidates &= match (lo, hi) {
+                (true, true) => 0xFF,
+                (true, false) => !upper,
+                (false, true) => upper,
+                (false, false) => 0,
+            };
+        }
+        (candidates, straddles)
+    }
+}
+
+/// The primitives as the build files them: triangles (indices `0..T`), then solids.
+pub(super) struct Filing<'a> {
+    pub(super) triangles: &'a [[Vec3; 3]],
+    /// Boxes of every primitive (triangles, then solids), a solid's by where its test can hit.
+    pub(super) boxes: Vec<Aabb>,
+    /// How each solid is filed (primitive `T + j` is solid `j`).
+    pub(super) solids: &'a [SolidExtent],
+    /// How far every cell is grown before the overlap test: the rounding error bound of the test
+    /// at the scene's magnitude, so the test never misses a primitive that reaches into a cell.
+    pub(super) margin: f32,
+}
+
+impl Filing<'_> {
+    /// Which of the children `cells` primitive `t`, filed in their parent, touches: bit `c` for
+    /// child `c`.
+    #[inline]
+    pub(super) fn children_touched(&self, cells: &ChildCells, t: usize) -> u8 {
+        let (candidates, straddles) = cells.candidates(&self.boxes[t]);
+        if !straddles {
+            return candidates;
+        }
+        let (held, p) = match self.triangles.get(t) {
+            Some(p) => {
+                let held = cells.holding(p[0]) | cells.holding(p[1]) | cells.holding(p[2]);
+                (candidates & held, Some(p))
+            }
+            None => (0, None),
+        };
+        let mut mask = held;
+        let mut rest = candidates & !held;
+        while rest != 0 {
+            let c = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (lo, hi) = cells.grown[c];
+            let touched = match p {
+                Some(p) => {
+                    let b = &cells.boxes[c];
+                    let half = (b.max - b.min) * 0.5 + Vec3::splat(self.margin);
+                    triangle_box_overlap(b.center(), half, p)
+                }
+                None => self.solid_touches(t - self.triangles.len(), t, lo, hi),
+            };
+            mask |= u8::from(touched) << c;
+        }
+        mask
+    }
+
+    /// True if solid `j` (primitive `t`) touches the grown box `lo..hi`: a lone sphere where its
+    /// surface is, another solid by its box.
+    fn solid_touches(&self, j: usize, t: usize, lo: Vec3, hi: Vec3) -> bool {
+        if let Some(&SolidExtent::Sphere {
+            center,
+            radius,
+            margin,
+            ..
+        }) = self.solids.get(j)
+        {
+            return sphere_surface_box_overlap(center, radius, margin, lo, hi);
+        }
+        let b = &self.boxes[t];
+        b.min.cmple(hi).all() && b.max.cmpge(lo).all()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::solid::extent::reject_box;
+
+    /// Which children primitive `t` touches, child by child: a candidate (its box reaches the
+    /// child's side of every centre plane, or lies on no other side) that holds a vertex in
+    /// its grown box or passes the separating-axis test; a solid by its own test.
+    fn touched_child_by_child(f: &Filing, cell: &Aabb, t: usize) -> u8 {
+        let mid = cell.center();
+        let b = &f.boxes[t];
+        let m = Vec3::splat(f.margin);
+        let mut mask = 0;
+        for c in 0..8 {
+            let candidate = (0..3).all(|a| {
+                let lower_side = b.min[a] < mid[a];
+                let upper_side = b.max[a] > mid[a] || !lower_side;
+                if c >> a & 1 == 1 {
+                    upper_side
+                } else {
+                    lower_side
+                }
+            });
+            if !candidate {
+                continue;
+            }
+            let cb = child_box(cell, mid, c);
+            let (lo, hi) = (cb.min - m, cb.max + m);
+            let touched = match f.triangles.get(t) {
+                Some(p) => {
+                    p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
+                        || triangle_box_overlap(cb.center(), (cb.max - cb.min) * 0.5 + m, p)
+                }
+                None => f.solid_touches(t - f.triangles.len(), t, lo, hi),
+            };
+            mask |= u8::from(touched) << c;
+        }
+        mask
+    }
+
+    /// Coordinates around the cell `0..4` on every axis: its faces and centre planes, the grown
+    /// children's sides, values a rounding step off them, and values spread between and beyond.
+    fn coordinates() -> impl FnMut() -> f32 {
+        let mut state = 0x2545_f491_u32;
+        move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            // The planes, the grown cells' sides (margin 1e-5), and a rounding step past them.
+            let special = [
+                0.0,
+                2.0,
+                4.0,
+                -1e-5,
+                2.0 - 1e-5,
+                2.0 + 1e-5,
+                4.0 + 1e-5,
+                2.000_001,
+                1.999_999,
+                4.000_001,
+            ];
+            if state % 4 == 0 {
+                special[(state >> 8) as usize % special.len()]
+            } else {
+                (state as f32 / u32::MAX as f32) * 6.0 - 1.0
+            }
+        }
+    }
+
+    fn point(next: &mut impl FnMut() -> f32) -> Vec3 {
+        Vec3::new(next(), next(), next())
+    }
+
+    #[test]
+    fn children_touched_is_the_child_by_child_answer() {
+        let mut next = coordinates();
+        // Small triangles near the planes and large ones across the cell.
+        let triangles: Vec<[Vec3; 3]> = (0..30_000)
+            .map(|i| {
+                let a = point(&mut next);
+                let scale = if i % 2 == 0 { 0.3 } else { 1.0 };
+                [
+                    a,
+                    a + (point(&mut next) - a) * scale,
+                    a + (point(&mut next) - a) * scale,
+                ]
+            })
+            .collect();
+        let solids: Vec<SolidExtent> = (0..3_000)
+            .map(|i| {
+                let (center, radius) = (point(&mut next), next().abs() * 0.8 + 0.05);
+                let bounds = Aabb {
+                    min: center - Vec3::splat(radius),
+                    max: center + Vec3::splat(radius),
+                };
+                if i % 2 == 0 {
+                    let margin = 1e-4;
+                    SolidExtent::Sphere {
+                        bounds,
+                        center,
+                        radius,
+                        margin,
+                    }
+                } else {
+                    SolidExtent::Box(bounds)
+                }
+            })
+            .collect();
+        let mut boxes: Vec<Aabb> = triangles.iter().map(Aabb::of_triangle).collect();
+        boxes.extend(
+            solids
+                .iter()
+                .map(|s| reject_box(&s.bounds().unwrap_or(Aabb::EMPTY))),
+        );
+        let filing = Filing {
+            triangles: &triangles,
+            boxes,
+            solids: &solids,
+            margin: 1e-5,
+        };
+        let cell = Aabb {
+            min: Vec3::ZERO,
+            max: Vec3::splat(4.0),
+        };
+        let cells = ChildCells::new(&cell, filing.margin);
+        let mut counts = [0usize; 9];
+        let (lo, hi) = (
+            cell.min - Vec3::splat(filing.margin),
+            cell.max + Vec3::splat(filing.margin),
+        );
+        let in_parent = |t: usize| match triangles.get(t) {
+            Some(p) => {
+                p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
+                    || triangle_box_overlap(cell.center(), (hi - lo) * 0.5, p)
+            }
+            None => filing.solid_touches(t - triangles.len(), t, lo, hi),
+        };
+        // The primitives filed in the cell, as its parent's filing would have.
+        for t in (0..triangles.len() + solids.len()).filter(|&t| in_parent(t)) {
+            let got = filing.children_touched(&cells, t);
+            assert_eq!(
+                got,
+                touched_child_by_child(&filing, &cell, t),
+                "primitive {t}"
+            );
+            counts[got.count_ones() as usize] += 1;
+        }
+        // Every number of children from one to all eight occurs.
+        assert!(counts[1..].iter().all(|&n| n > 500), "{counts:?}");
+    }
+}
