@@ -128,7 +128,7 @@ fn firmware() -> Result<&'static Firmware, Box<dyn Error>> {
             None,
             &dir.path().join("with-secret.elf"),
         )?;
-        let small_heap = build(None, Some(3200), &dir.path().join("small-heap.elf"))?;
+        let small_heap = build(None, Some(3072), &dir.path().join("small-heap.elf"))?;
         let plain = build(None, None, &dir.path().join("plain.elf"))?;
         Ok(Firmware {
             plain,

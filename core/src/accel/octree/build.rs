@@ -157,7 +157,7 @@ impl Octree {
             max_depth: params.max_depth.min(MAX_DEPTH_LIMIT),
             max_leaf_triangles: params.max_leaf_triangles.max(1),
         };
-        let (filed, world, boxes) = filed_primitives(triangles, solids);
+        let (filed, world, reach) = filed_primitives(triangles, solids);
         let bounds = union(world.iter().copied());
         let filed_count = filed.len() as u32;
         let budget = (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET);
@@ -167,7 +167,7 @@ impl Octree {
         let mut b = Builder {
             filing: Filing {
                 triangles,
-                boxes,
+                reach,
                 solids,
                 margin: magnitude * gamma(16),
             },
@@ -237,33 +237,31 @@ fn most_nodes(budget: usize) -> usize {
 const MIN_BUDGET: usize = 64 * 1024;
 
 /// The primitives to file (non-degenerate triangles, bounded solids) with their world boxes, and
-/// every primitive's box as the build files it (a solid's by where its test can hit).
+/// each solid's box as the build files it (where its test can hit; empty if it is unbounded).
 fn filed_primitives(
     triangles: &[[Vec3; 3]],
     solids: &[SolidExtent],
 ) -> (Vec<u32>, Vec<Aabb>, Vec<Aabb>) {
     let mut filed = Vec::with_capacity(triangles.len() + solids.len());
     let mut world = Vec::with_capacity(triangles.len() + solids.len());
-    let mut boxes = Vec::with_capacity(triangles.len() + solids.len());
+    let mut reach = Vec::with_capacity(solids.len());
     for (i, p) in triangles.iter().enumerate() {
-        let b = Aabb::of_triangle(p);
-        boxes.push(b);
         if unit_normal(p).is_some() {
             filed.push(i as u32);
-            world.push(b);
+            world.push(Aabb::of_triangle(p));
         }
     }
     for (j, solid) in solids.iter().enumerate() {
         match solid.bounds().zip(solid.reach()) {
-            Some((b, reach)) => {
-                boxes.push(reach);
+            Some((b, r)) => {
+                reach.push(r);
                 filed.push((triangles.len() + j) as u32);
                 world.push(b);
             }
-            None => boxes.push(Aabb::EMPTY),
+            None => reach.push(Aabb::EMPTY),
         }
     }
-    (filed, world, boxes)
+    (filed, world, reach)
 }
 
 /// The box around `boxes`; a point at the origin if there are none.

@@ -104,8 +104,9 @@ impl ChildCells {
 /// The primitives as the build files them: triangles (indices `0..T`), then solids.
 pub(super) struct Filing<'a> {
     pub(super) triangles: &'a [[Vec3; 3]],
-    /// Boxes of every primitive (triangles, then solids), a solid's by where its test can hit.
-    pub(super) boxes: Vec<Aabb>,
+    /// Each solid's reject box (where its test can hit; `SolidExtent::reach`), empty for an
+    /// unbounded one.
+    pub(super) reach: Vec<Aabb>,
     /// How each solid is filed (primitive `T + j` is solid `j`).
     pub(super) solids: &'a [SolidExtent],
     /// How far every cell is grown before the overlap test: the rounding error bound of the test
@@ -118,39 +119,47 @@ impl Filing<'_> {
     /// child `c`.
     #[inline]
     pub(super) fn children_touched(&self, cells: &ChildCells, t: usize) -> u8 {
-        let (candidates, straddles) = cells.candidates(&self.boxes[t]);
+        match self.triangles.get(t) {
+            Some(p) => self.triangle_children(cells, p),
+            None => self.solid_children(cells, t - self.triangles.len()),
+        }
+    }
+
+    /// [`Filing::children_touched`] for the triangle `p`. Its box is computed from its vertices
+    /// (the same numbers as a stored box), so the build loads one record per triangle.
+    #[inline]
+    fn triangle_children(&self, cells: &ChildCells, p: &[Vec3; 3]) -> u8 {
+        let (candidates, straddles) = cells.candidates(&Aabb::of_triangle(p));
         if !straddles {
             return candidates;
         }
-        let (held, p) = match self.triangles.get(t) {
-            Some(p) => {
-                let held = cells.holding(p[0]) | cells.holding(p[1]) | cells.holding(p[2]);
-                (candidates & held, Some(p))
-            }
-            None => (0, None),
-        };
+        let held = candidates & (cells.holding(p[0]) | cells.holding(p[1]) | cells.holding(p[2]));
         let mut mask = held;
-        let mut rest = candidates & !held;
-        while rest != 0 {
-            let c = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            let (lo, hi) = cells.grown[c];
-            let touched = match p {
-                Some(p) => {
-                    let b = &cells.boxes[c];
-                    let half = (b.max - b.min) * 0.5 + Vec3::splat(self.margin);
-                    triangle_box_overlap(b.center(), half, p)
-                }
-                None => self.solid_touches(t - self.triangles.len(), t, lo, hi),
-            };
-            mask |= u8::from(touched) << c;
+        for c in bits(candidates & !held) {
+            let b = &cells.boxes[c];
+            let half = (b.max - b.min) * 0.5 + Vec3::splat(self.margin);
+            mask |= u8::from(triangle_box_overlap(b.center(), half, p)) << c;
         }
         mask
     }
 
-    /// True if solid `j` (primitive `t`) touches the grown box `lo..hi`: a lone sphere where its
-    /// surface is, another solid by its box.
-    fn solid_touches(&self, j: usize, t: usize, lo: Vec3, hi: Vec3) -> bool {
+    /// [`Filing::children_touched`] for solid `j`.
+    fn solid_children(&self, cells: &ChildCells, j: usize) -> u8 {
+        let (candidates, straddles) = cells.candidates(&self.reach[j]);
+        if !straddles {
+            return candidates;
+        }
+        let mut mask = 0;
+        for c in bits(candidates) {
+            let (lo, hi) = cells.grown[c];
+            mask |= u8::from(self.solid_touches(j, lo, hi)) << c;
+        }
+        mask
+    }
+
+    /// True if solid `j` touches the grown box `lo..hi`: a lone sphere where its surface is,
+    /// another solid by its reject box.
+    fn solid_touches(&self, j: usize, lo: Vec3, hi: Vec3) -> bool {
         if let Some(&SolidExtent::Sphere {
             center,
             radius,
@@ -160,9 +169,18 @@ impl Filing<'_> {
         {
             return sphere_surface_box_overlap(center, radius, margin, lo, hi);
         }
-        let b = &self.boxes[t];
+        let b = &self.reach[j];
         b.min.cmple(hi).all() && b.max.cmpge(lo).all()
     }
+}
+
+/// The indices of the bits set in `mask`, lowest first.
+fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        let c = mask.trailing_zeros() as usize;
+        mask &= mask.wrapping_sub(1);
+        (c < 8).then_some(c)
+    })
 }
 
 #[cfg(test)]
@@ -172,10 +190,11 @@ mod tests {
 
     /// Which children primitive `t` touches, child by child: a candidate (its box reaches the
     /// child's side of every centre plane, or lies on no other side) that holds a vertex in
-    /// its grown box or passes the separating-axis test; a solid by its own test.
-    fn touched_child_by_child(f: &Filing, cell: &Aabb, t: usize) -> u8 {
+    /// its grown box or passes the separating-axis test; a solid by its own test. `boxes` are
+    /// every primitive's (a triangle's, then a solid's reject box).
+    fn touched_child_by_child(f: &Filing, boxes: &[Aabb], cell: &Aabb, t: usize) -> u8 {
         let mid = cell.center();
-        let b = &f.boxes[t];
+        let b = &boxes[t];
         let m = Vec3::splat(f.margin);
         let mut mask = 0;
         for c in 0..8 {
@@ -198,7 +217,7 @@ mod tests {
                     p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
                         || triangle_box_overlap(cb.center(), (cb.max - cb.min) * 0.5 + m, p)
                 }
-                None => f.solid_touches(t - f.triangles.len(), t, lo, hi),
+                None => f.solid_touches(t - f.triangles.len(), lo, hi),
             };
             mask |= u8::from(touched) << c;
         }
@@ -273,15 +292,15 @@ mod tests {
                 }
             })
             .collect();
+        let reach: Vec<Aabb> = solids
+            .iter()
+            .map(|s| reject_box(&s.bounds().unwrap_or(Aabb::EMPTY)))
+            .collect();
         let mut boxes: Vec<Aabb> = triangles.iter().map(Aabb::of_triangle).collect();
-        boxes.extend(
-            solids
-                .iter()
-                .map(|s| reject_box(&s.bounds().unwrap_or(Aabb::EMPTY))),
-        );
+        boxes.extend_from_slice(&reach);
         let filing = Filing {
             triangles: &triangles,
-            boxes,
+            reach,
             solids: &solids,
             margin: 1e-5,
         };
@@ -300,14 +319,14 @@ mod tests {
                 p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
                     || triangle_box_overlap(cell.center(), (hi - lo) * 0.5, p)
             }
-            None => filing.solid_touches(t - triangles.len(), t, lo, hi),
+            None => filing.solid_touches(t - triangles.len(), lo, hi),
         };
         // The primitives filed in the cell, as its parent's filing would have.
         for t in (0..triangles.len() + solids.len()).filter(|&t| in_parent(t)) {
             let got = filing.children_touched(&cells, t);
             assert_eq!(
                 got,
-                touched_child_by_child(&filing, &cell, t),
+                touched_child_by_child(&filing, &boxes, &cell, t),
                 "primitive {t}"
             );
             counts[got.count_ones() as usize] += 1;
