@@ -8,14 +8,14 @@
 //!    children. A box on one side of every plane has one candidate, and the parent's test
 //!    already said the primitive touches the parent, so that is the answer.
 //! 2. For a triangle, every child whose grown box holds one of its vertices is touched: each
-//!    vertex is placed in the grown halves of each axis (twelve comparisons per vertex, against
-//!    six per vertex and child before).
+//!    vertex is placed in the grown halves of each axis (twelve comparisons per vertex, however
+//!    many candidates there are).
 //! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
 //!    sphere-surface test (lone spheres) or the box test (other solids).
 //!
 //! A triangle touches a child exactly when the child's grown box (its sides included) holds a
-//! vertex or the separating-axis test finds no separating axis: the answer the build gave when
-//! it tested every candidate child vertex by vertex, so the trees are the same to the node.
+//! vertex or the separating-axis test finds no separating axis: the same answer as testing each
+//! candidate child on its own, which the tests below check.
 
 use super::child_box;
 use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
