@@ -11,11 +11,12 @@
 //!   short sides where it is flatter than 4 : 1 (every cell has the root's shape; see
 //!   `build.rs`).
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
-//!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`], and files a triangle in every
-//!   child cell it touches (`filing.rs`: exact separating-axis test, in `overlap.rs`, on a box
-//!   grown by its error bound), a sphere standing alone in every cell its surface passes through, and other
-//!   solids in every cell their reject box touches; a primitive that only touches a centre plane
-//!   from one side is filed on that side alone.
+//!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`]. Which children a primitive
+//!   goes in is decided in `filing.rs`: a triangle every child cell it touches (exact
+//!   separating-axis test, in `overlap.rs`, on a box grown by its error bound), a sphere
+//!   standing alone every cell its surface passes through, and other solids every cell their
+//!   reject box touches; a primitive that only touches a centre plane from one side is filed on
+//!   that side alone.
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray
 //!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` and
@@ -214,7 +215,8 @@ impl Octree {
     }
 }
 
-/// The box of child `c` of `cell` split at `mid`: bit `a` of `c` selects the upper half on axis `a`.
+/// The box of child `c` of `cell` split at `mid`: bit `a` of `c` selects the upper half on axis
+/// `a`. The build, the filing tests and the walk all cut cells with it, so theirs agree to the bit.
 #[inline]
 fn child_box(cell: &Aabb, mid: Vec3, c: usize) -> Aabb {
     let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
