@@ -287,23 +287,10 @@ impl Scene {
         let blocker = if self.group_spheres {
             self.octree.any_hit_grouped(ray, t_max, work, &mut tests)
         } else {
-            let mut blocker = None;
-            let found = self.octree.any_hit_with(ray, t_max, work, |i| {
-                let hit = tests.blocks(i);
-                blocker = blocker.or(hit.then_some(i));
-                hit
-            });
-            blocker.filter(|_| found)
+            self.octree
+                .first_blocker_with(ray, t_max, work, |i| tests.blocks(i))
         };
-        let blocker = blocker.or_else(|| {
-            let mut blocker = None;
-            self.unbounded_block(work, &mut |i| {
-                let hit = tests.blocks(i);
-                blocker = blocker.or(hit.then_some(i));
-                hit
-            });
-            blocker
-        });
+        let blocker = blocker.or_else(|| self.unbounded_blocker(work, &mut |i| tests.blocks(i)));
         if blocker.is_some() {
             *last = blocker;
         }
@@ -322,15 +309,22 @@ impl Scene {
         let frame = QueryFrame::new(ray);
         let mut test = |i: u32| self.blocks(&frame, ray, i, t_max, spans);
         self.octree.any_hit_with(ray, t_max, work, &mut test)
-            || self.unbounded_block(work, &mut test)
+            || self.unbounded_blocker(work, &mut test).is_some()
     }
 
-    /// True if `blocks` holds for an unbounded solid (tested in order, up to the first that
-    /// does); counts the tests in `work`.
-    fn unbounded_block(&self, work: &mut QueryWork, blocks: &mut impl FnMut(u32) -> bool) -> bool {
-        self.unbounded.iter().any(|&j| {
-            work.intersection_tests += 1;
-            blocks(self.solid_index(j))
-        })
+    /// The first unbounded solid (in order) for which `blocks` holds, as a primitive index;
+    /// counts the tests in `work`.
+    fn unbounded_blocker(
+        &self,
+        work: &mut QueryWork,
+        blocks: &mut impl FnMut(u32) -> bool,
+    ) -> Option<u32> {
+        self.unbounded
+            .iter()
+            .map(|&j| self.solid_index(j))
+            .find(|&i| {
+                work.intersection_tests += 1;
+                blocks(i)
+            })
     }
 }

@@ -283,8 +283,18 @@ impl Octree {
         work: &mut QueryWork,
         test: impl FnMut(u32) -> bool,
     ) -> bool {
+        self.first_blocker_with(ray, t_max, work, test).is_some()
+    }
+
+    /// [`Octree::any_hit_with`], returning the primitive it stopped at.
+    pub fn first_blocker_with(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        work: &mut QueryWork,
+        test: impl FnMut(u32) -> bool,
+    ) -> Option<u32> {
         self.any_hit_grouped(ray, t_max, work, &mut OneByOne(test))
-            .is_some()
     }
 
     /// [`Octree::any_hit_with`] for tests that go faster together, as in
