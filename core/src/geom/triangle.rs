@@ -28,6 +28,9 @@ pub struct RayFrame {
     kz: usize,
     kx: usize,
     ky: usize,
+    /// The origin's components on the new x, y and z axes (`origin[kx]`, `origin[ky]`,
+    /// `origin[kz]`).
+    permuted_origin: [f32; 3],
     sx: f32,
     sy: f32,
     sz: f32,
@@ -72,6 +75,7 @@ impl RayFrame {
             kz,
             kx,
             ky,
+            permuted_origin: [ray.origin[kx], ray.origin[ky], ray.origin[kz]],
             sx: -ray.dir[kx] / dz,
             sy: -ray.dir[ky] / dz,
             sz: 1.0 / dz,
@@ -85,12 +89,17 @@ impl RayFrame {
 pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<TriangleHit> {
     let (kx, ky, kz) = (frame.kx, frame.ky, frame.kz);
     // Translate to the ray origin and permute so the ray runs along +z.
-    let t0 = p[0] - frame.origin;
-    let t1 = p[1] - frame.origin;
-    let t2 = p[2] - frame.origin;
-    let (mut p0x, mut p0y, mut p0z) = (t0[kx], t0[ky], t0[kz]);
-    let (mut p1x, mut p1y, mut p1z) = (t1[kx], t1[ky], t1[kz]);
-    let (mut p2x, mut p2y, mut p2z) = (t2[kx], t2[ky], t2[kz]);
+    // Each component is picked by index from the vertex as an array: a load at an offset.
+    // (Indexing the vector itself compiles to a chain of branches on the index.) Picking before
+    // subtracting gives the same values as subtracting the whole vectors.
+    let [ox, oy, oz] = frame.permuted_origin;
+    let moved = |q: &Vec3| {
+        let q: &[f32; 3] = q.as_ref();
+        (q[kx] - ox, q[ky] - oy, q[kz] - oz)
+    };
+    let (mut p0x, mut p0y, mut p0z) = moved(&p[0]);
+    let (mut p1x, mut p1y, mut p1z) = moved(&p[1]);
+    let (mut p2x, mut p2y, mut p2z) = moved(&p[2]);
     // Shear x and y; z is scaled only once the edge test passed.
     p0x += frame.sx * p0z;
     p0y += frame.sy * p0z;
