@@ -19,7 +19,7 @@ use crate::geom::triangle::{intersect, RayFrame};
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// How much a piece of a ray's interval is widened, relatively, around a crossing of a centre
 /// plane: twice the error bound of the three roundings in a crossing `(mid − o) · (1/d)`.
@@ -152,11 +152,22 @@ struct Entry {
 /// The box of the interior cell the walk entered last at each depth. The walk is depth first, so
 /// the parent of a cell popped at depth `d` is the cell entered last at depth `d − 1`: its box
 /// is `boxes[d − 1]`, and the child's is cut from it exactly as the build cut it.
+///
+/// The corners are kept as 16-byte vectors, each written and read whole: a child is often
+/// entered right after its parent, while the parent's box is still on its way to the cache, and
+/// a read that spans two narrower writes cannot be served from them (the processor waits until
+/// they reach the cache, about a dozen cycles per cell).
 struct Path<const P: usize> {
-    boxes: [Aabb; P],
+    boxes: [(Vec3A, Vec3A); P],
 }
 
 impl<const P: usize> Path<P> {
+    fn new() -> Self {
+        Path {
+            boxes: [(Vec3A::ZERO, Vec3A::ZERO); P],
+        }
+    }
+
     /// The box of the cell `e`, an interior node, which the walk enters now (remembered for its
     /// children).
     #[inline(always)]
@@ -165,11 +176,15 @@ impl<const P: usize> Path<P> {
         let cell = match d.checked_sub(1) {
             None => root,
             Some(up) => {
-                let parent = &self.boxes[up];
-                child_box(parent, parent.center(), e.child as usize)
+                let (min, max) = self.boxes[up];
+                let parent = Aabb {
+                    min: min.into(),
+                    max: max.into(),
+                };
+                child_box(&parent, parent.center(), e.child as usize)
             }
         };
-        self.boxes[d] = cell;
+        self.boxes[d] = (cell.min.into(), cell.max.into());
         cell
     }
 }
@@ -376,12 +391,7 @@ impl Octree {
         let mut cells = 0u64;
         // All-zero entries and boxes: the compiler clears them with one fill each.
         let mut stack = [Entry::default(); S];
-        let mut path = Path {
-            boxes: [Aabb {
-                min: Vec3::ZERO,
-                max: Vec3::ZERO,
-            }; P],
-        };
+        let mut path = Path::<P>::new();
         stack[0] = Entry {
             t0: t0 * (1.0 - WIDEN),
             t1,
@@ -471,15 +481,21 @@ fn push_children<const S: usize>(
     // Plane crossings inside the interval, in ray order. The interval's ends are widened by
     // twice a crossing's error bound, so a crossing truly inside is computed inside: whether
     // the ray starts on the upper side is never decided by a rounded crossing.
-    let mut events = [(f32::INFINITY, 0usize); 3];
+    // Crossings and their axes in two arrays of 4-byte values: the sort's reads then match the
+    // writes before them one for one. (Pairs of a float and an index were written in two
+    // parts and read whole, and such a read waits until the writes reach the cache.)
+    let mut ts = [f32::INFINITY; 3];
+    let mut axes = [0u32; 3];
     let mut n = 0;
     for (a, &c) in cross.iter().enumerate() {
         if c > e.t0 && c < e.t1 {
-            events[n] = (c, a);
+            ts[n] = c;
+            axes[n] = a as u32;
             n += 1;
         }
     }
-    sort3(&mut events);
+    sort3(&mut ts, &mut axes);
+    let events: [(f32, usize); 3] = core::array::from_fn(|k| (ts[k], axes[k] as usize));
     if in_plane != 0 {
         let (t0, t1, depth) = (e.t0, e.t1, e.depth + 1);
         return push_both_sides(
@@ -648,16 +664,14 @@ fn push_unordered<const S: usize>(
     top
 }
 
-/// Sorts three (t, axis) pairs by t; infinities (unused slots) sort last.
+/// Sorts three crossings `ts` by value, their axes `axes` along; infinities (unused slots) sort
+/// last, and equal values keep their order.
 #[inline]
-fn sort3(v: &mut [(f32, usize); 3]) {
-    if v[1].0 < v[0].0 {
-        v.swap(0, 1);
-    }
-    if v[2].0 < v[1].0 {
-        v.swap(1, 2);
-    }
-    if v[1].0 < v[0].0 {
-        v.swap(0, 1);
+fn sort3(ts: &mut [f32; 3], axes: &mut [u32; 3]) {
+    for (i, j) in [(0, 1), (1, 2), (0, 1)] {
+        if ts[j] < ts[i] {
+            ts.swap(i, j);
+            axes.swap(i, j);
+        }
     }
 }
