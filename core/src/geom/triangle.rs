@@ -14,7 +14,7 @@
 
 use crate::math::float::{gamma, next_float_up, MACHINE_EPSILON};
 use crate::math::ray::Ray;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// The per-ray part of the watertight test: the axis permutation and shear that map the ray
 /// direction to +z.
@@ -69,6 +69,8 @@ impl RayFrame {
             core::mem::swap(&mut kx, &mut ky);
         }
         let dz = ray.dir[kz];
+        // `-d[kx] / dz`, `-d[ky] / dz` and `1 / dz` as one vector division, lane by lane.
+        let shear = Vec3A::new(-ray.dir[kx], -ray.dir[ky], 1.0) / Vec3A::splat(dz);
         RayFrame {
             origin: ray.origin,
             dir: ray.dir,
@@ -76,9 +78,9 @@ impl RayFrame {
             kx,
             ky,
             permuted_origin: [ray.origin[kx], ray.origin[ky], ray.origin[kz]],
-            sx: -ray.dir[kx] / dz,
-            sy: -ray.dir[ky] / dz,
-            sz: 1.0 / dz,
+            sx: shear.x,
+            sy: shear.y,
+            sz: shear.z,
         }
     }
 }

@@ -64,7 +64,7 @@ impl QueryFrame {
     fn new(ray: &Ray) -> QueryFrame {
         QueryFrame {
             triangles: RayFrame::new(ray),
-            inv_dir: glam::Vec3::ONE / ray.dir,
+            inv_dir: (glam::Vec3A::ONE / glam::Vec3A::from(ray.dir)).into(),
         }
     }
 }

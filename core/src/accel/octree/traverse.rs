@@ -384,7 +384,8 @@ impl Octree {
         t_max: f32,
         mut leaf: impl FnMut(&[u32]) -> f32,
     ) -> u64 {
-        let inv_dir = Vec3::ONE / ray.dir;
+        // One vector division for the three lanes: each lane is the scalar quotient.
+        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir));
         let Some((t0, t1)) = self.root.intersect(ray, inv_dir, t_max) else {
             return 0;
         };
