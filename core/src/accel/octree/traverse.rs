@@ -393,16 +393,25 @@ impl Octree {
         // All-zero entries and boxes: the compiler clears them with one fill each.
         let mut stack = [Entry::default(); S];
         let mut path = Path::<P>::new();
-        stack[0] = Entry {
+        // The cell to enter next when it is not on the stack: the nearest child of the cell
+        // entered last, kept in registers (a push and a pop of it would put a trip through
+        // memory on the walk's critical path).
+        let mut next = Some(Entry {
             t0: t0 * (1.0 - WIDEN),
             t1,
             ..Entry::default()
-        };
-        let mut top = 1usize;
+        });
+        let mut top = 0usize;
         let mut cutoff = f32::INFINITY;
-        while top > 0 {
-            top -= 1;
-            let e = stack[top];
+        loop {
+            let e = match next.take() {
+                Some(e) => e,
+                None if top > 0 => {
+                    top -= 1;
+                    stack[top]
+                }
+                None => break,
+            };
             if e.t0 > cutoff {
                 if cutoff == f32::NEG_INFINITY {
                     return cells;
@@ -417,15 +426,16 @@ impl Octree {
                 continue;
             }
             let cell = path.enter(&e, self.root);
-            top = push_children(ray, inv_dir, &e, node, cell.center(), &mut stack, top);
+            (top, next) = push_children(ray, inv_dir, &e, node, cell.center(), &mut stack, top);
         }
         cells
     }
 }
 
 /// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) that
-/// the ray may touch, farthest first along the ray, so the nearest is popped next; returns the
-/// new stack top.
+/// the ray may touch, farthest first along the ray; returns the new stack top and the nearest
+/// child (if occupied), which is not pushed: the walk enters it next, as it would have popped
+/// it next.
 ///
 /// The build files a primitive that touches a centre plane from one side on that side only (see
 /// `build.rs`), so the walk must reach every child the ray touches, even only at a point. The
@@ -448,7 +458,7 @@ fn push_children<const S: usize>(
     mid: Vec3,
     stack: &mut [Entry; S],
     top: usize,
-) -> usize {
+) -> (usize, Option<Entry>) {
     // Per axis, where the ray crosses the centre plane, and whether it starts on the upper side.
     // NaN where the ray is parallel to the plane: no crossing, never an event below.
     let mut cross = [f32::NAN; 3];
@@ -499,7 +509,7 @@ fn push_children<const S: usize>(
     let events: [(f32, usize); 3] = core::array::from_fn(|k| (ts[k], axes[k] as usize));
     if in_plane != 0 {
         let (t0, t1, depth) = (e.t0, e.t1, e.depth + 1);
-        return push_both_sides(
+        let top = push_both_sides(
             t0,
             t1,
             depth,
@@ -509,6 +519,7 @@ fn push_children<const S: usize>(
             stack,
             top,
         );
+        return (top, None);
     }
     push_path(
         (e.t0, e.t1, e.depth + 1),
@@ -522,7 +533,8 @@ fn push_children<const S: usize>(
 
 /// Pushes the children (cells at `depth`) along the ray's path through `[t0, t1]` from `child`
 /// (the one it starts in), cutting at `events` (the first `n` of them, in ray order), and those
-/// around crossings that tie; returns the new top. The entry's fields come as values: an entry
+/// around crossings that tie; returns the new top and the first piece's cell (if occupied),
+/// which it does not push (see [`push_children`]). The entry's fields come as values: an entry
 /// passed whole is copied through memory, and its 16-byte load then waits on the narrower
 /// stores that wrote it.
 #[inline(always)]
@@ -533,7 +545,7 @@ fn push_path<const S: usize>(
     (events, n): (&[(f32, usize); 3], usize),
     stack: &mut [Entry; S],
     mut top: usize,
-) -> usize {
+) -> (usize, Option<Entry>) {
     let tied = |k: usize| tie(events[k].0, events[k + 1].0);
     if n >= 2 && (tied(0) || (n == 3 && tied(1))) {
         top = push_unordered(depth, node, child, &events[..n], stack, top);
@@ -543,20 +555,21 @@ fn push_path<const S: usize>(
         child ^= 1 << a;
     }
     let mut end = t1;
-    for k in (0..=n).rev() {
-        let start = if k == 0 {
-            t0
-        } else {
-            events[k - 1].0 * (1.0 - WIDEN)
-        };
+    for k in (1..=n).rev() {
+        let start = events[k - 1].0 * (1.0 - WIDEN);
         top = push_child(depth, node, child, (start, end), stack, top);
-        if k > 0 {
-            let (c, a) = events[k - 1];
-            child ^= 1 << a;
-            end = c * (1.0 + WIDEN);
-        }
+        let (c, a) = events[k - 1];
+        child ^= 1 << a;
+        end = c * (1.0 + WIDEN);
     }
-    top
+    let nearest = node.child_occupied(child).then_some(Entry {
+        node: node.first + child as u32,
+        t0,
+        t1: end,
+        depth,
+        child: child as u16,
+    });
+    (top, nearest)
 }
 
 /// [`push_path`] for a ray that lies in the centre planes of the axes `in_plane`: once from each
@@ -576,7 +589,12 @@ fn push_both_sides<const S: usize>(
 ) -> usize {
     let mut side = in_plane;
     loop {
-        top = push_path((t0, t1, depth), node, child ^ side, events, stack, top);
+        let nearest;
+        (top, nearest) = push_path((t0, t1, depth), node, child ^ side, events, stack, top);
+        if let Some(e) = nearest {
+            stack[top] = e;
+            top += 1;
+        }
         if side == 0 {
             return top;
         }
