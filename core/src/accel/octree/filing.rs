@@ -186,6 +186,7 @@ fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::octree::xorshift;
     use crate::geom::solid::extent::reject_box;
 
     /// Which children primitive `t` touches, child by child: a candidate (its box reaches the
@@ -227,11 +228,9 @@ mod tests {
     /// Coordinates around the cell `0..4` on every axis: its faces and centre planes, the grown
     /// children's sides, values a rounding step off them, and values spread between and beyond.
     fn coordinates() -> impl FnMut() -> f32 {
-        let mut state = 0x2545_f491_u32;
+        let mut next = xorshift(0x2545_f491);
         move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
+            let state = next();
             // The planes, the grown cells' sides (margin 1e-5), and a rounding step past them.
             let special = [
                 0.0,

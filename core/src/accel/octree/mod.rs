@@ -225,3 +225,16 @@ fn child_box(cell: &Aabb, mid: Vec3, c: usize) -> Aabb {
         max: Vec3::select(upper, cell.max, mid),
     }
 }
+
+/// The octree tests' fixed sequence of numbers (xorshift32 from `seed`): each call gives the
+/// next.
+#[cfg(test)]
+fn xorshift(seed: u32) -> impl FnMut() -> u32 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 17;
+        state ^= state << 5;
+        state
+    }
+}

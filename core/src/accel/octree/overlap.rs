@@ -76,6 +76,7 @@ pub(super) fn triangle_box_overlap(center: Vec3, half: Vec3, tri: &[Vec3; 3]) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::octree::xorshift;
 
     #[test]
     fn a_sphere_is_filed_where_its_surface_is() {
@@ -127,13 +128,8 @@ mod tests {
     fn every_box_that_holds_a_point_of_the_surface_is_kept() {
         let points: alloc::vec::Vec<Vec3> = surface_points(4000).collect();
         // Boxes of many sizes around the sphere, from a fixed sequence.
-        let mut state = 0x2545_f491_u32;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            state as f32 / u32::MAX as f32
-        };
+        let mut state = xorshift(0x2545_f491);
+        let mut next = move || state() as f32 / u32::MAX as f32;
         let (mut kept, mut dropped) = (0, 0);
         for _ in 0..3000 {
             let c = Vec3::new(next(), next(), next()) * 2.4 - Vec3::splat(1.2);
@@ -193,11 +189,9 @@ mod tests {
     /// A fixed sequence of coordinates around the box `[-1, 1]³`: its faces, its centre, values
     /// a rounding step off them, and values spread between.
     fn coordinates() -> impl FnMut() -> f32 {
-        let mut state = 0x9e37_79b9_u32;
+        let mut next = xorshift(0x9e37_79b9);
         move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
+            let state = next();
             let special = [-1.0, 1.0, 0.0, -1.000_000_1, 1.000_000_1, 0.999_999_94, 3.0];
             let u = state as f32 / u32::MAX as f32;
             if state % 3 == 0 {
