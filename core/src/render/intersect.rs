@@ -2,14 +2,16 @@
 //! unbounded solids (half-spaces) beside it.
 //!
 //! Where the octree's leaves are large (many overlapping spheres), the closest-hit and shadow
-//! queries test lone spheres in groups ([`SphereGroup`]), to the same answers.
+//! queries test lone spheres in groups ([`SphereGroup`]), to the same answers. Elsewhere four
+//! neighbouring camera rays can find their closest hits together ([`Scene::closest_hits4`]),
+//! each the one it finds alone.
 //!
 //! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
 //! smallest primitive index (triangles first, then solids), so every machine picks the same one.
 //! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
 //! [`QueryWork`].
 
-use crate::accel::octree::{GroupBlocks, GroupTests};
+use crate::accel::octree::{GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
@@ -202,7 +204,7 @@ impl Scene {
         }
         let spans = &mut scratch.spans;
         let frame = QueryFrame::new(ray);
-        let mut best = if self.group_spheres {
+        let best = if self.group_spheres {
             let mut tests = SceneTests {
                 scene: self,
                 frame: &frame,
@@ -217,6 +219,47 @@ impl Scene {
                 self.test_primitive(&frame, ray, i, bound, spans)
             })
         };
+        self.closest_unbounded(ray, t_max, best, spans, work)
+    }
+
+    /// The closest hits of four rays with `0 < t < t_max`, each what [`Scene::closest_hit`]
+    /// returns for it. Neighbouring camera rays walk the octree together
+    /// ([`Octree::closest_hits4`](crate::accel::octree::Octree::closest_hits4)); where lone
+    /// spheres are tested in groups, the rays go one at a time.
+    pub fn closest_hits4(
+        &self,
+        rays: &[Ray; LANES],
+        t_max: f32,
+        scratch: &mut QueryScratch,
+    ) -> [Option<PrimitiveHit>; LANES] {
+        if self.group_spheres {
+            return core::array::from_fn(|l| self.closest_hit(&rays[l], t_max, scratch));
+        }
+        let (spans, work) = (&mut scratch.spans, &mut scratch.work);
+        if self.solids.is_empty() {
+            let frames = rays.each_ref().map(RayFrame::new);
+            let hits = self.octree.closest_hits4(rays, t_max, work, |l, i, bound| {
+                intersect(&frames[l], &self.triangle_points[i as usize], bound)
+            });
+            return hits.map(|h| h.map(|(i, h)| PrimitiveHit::Triangle(i, h)));
+        }
+        let frames = rays.each_ref().map(QueryFrame::new);
+        let hits = self.octree.closest_hits4(rays, t_max, work, |l, i, bound| {
+            self.test_primitive(&frames[l], &rays[l], i, bound, spans)
+        });
+        core::array::from_fn(|l| self.closest_unbounded(&rays[l], t_max, hits[l], spans, work))
+    }
+
+    /// The closer of `best` and the unbounded solids' closest hit of `ray` (their tests added
+    /// to `work`).
+    fn closest_unbounded(
+        &self,
+        ray: &Ray,
+        t_max: f32,
+        mut best: Option<(u32, PrimitiveHit)>,
+        spans: &mut SpanScratch,
+        work: &mut QueryWork,
+    ) -> Option<PrimitiveHit> {
         work.intersection_tests += self.unbounded.len() as u64;
         for &j in &self.unbounded {
             let bound = best.map_or(t_max, |(_, h)| {

@@ -2,16 +2,18 @@
 //!
 //! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
-//! summed in sample order. Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
+//! summed in sample order. With one sample per pixel, four neighbouring pixels' rays find their
+//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone. Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
 //! `render_line` traces only the pixel centres, and [`crate::render::adaptive::refine_line`] later
 //! supersamples the pixels that differ from a neighbour. Every decision depends on the scene and
 //! the pixel alone, so any executor on any machine produces the same pixels.
 
+use crate::accel::octree::LANES;
 use crate::math::ray::Ray;
 use crate::render::error::RenderError;
 use crate::render::pixel::Pixel;
 use crate::render::sampling::{mix, pixel_sample, pixel_seed};
-use crate::render::shade::{trace, TraceScratch};
+use crate::render::shade::{trace, trace_from, TraceScratch};
 use crate::render::stats::RayCounts;
 use crate::scene::effects::is_adaptive;
 use crate::scene::Scene;
@@ -44,6 +46,14 @@ pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts
         }
         return Ok(counts);
     }
+    if m == 1 {
+        for (k, pixels) in out.chunks_mut(LANES).enumerate() {
+            let x = (k * LANES) as u32;
+            single_samples(scene, (x, y), pixels, &mut scratch, &mut counts);
+        }
+        counts.primary += out.len() as u64;
+        return Ok(counts);
+    }
     for (x, px) in out.iter_mut().enumerate() {
         let color = supersample(scene, x as u32, y, &mut scratch, &mut counts);
         counts.primary += 1;
@@ -51,6 +61,41 @@ pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts
         *px = Pixel::from_color(color);
     }
     Ok(counts)
+}
+
+/// The pixels from `(x, y)` rightwards, one sample each: [`supersample`]'s colours. Four
+/// neighbours' rays find their first hits together ([`TraceScratch::first_hits4`]); a line's last
+/// pixels, fewer than four, go one at a time.
+fn single_samples(
+    scene: &Scene,
+    (x, y): (u32, u32),
+    pixels: &mut [Pixel],
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) {
+    let Ok(four) = <&mut [Pixel; LANES]>::try_from(&mut *pixels) else {
+        for (px, x) in pixels.iter_mut().zip(x..) {
+            *px = Pixel::from_color(supersample(scene, x, y, scratch, counts));
+        }
+        return;
+    };
+    let samples: [(Ray, u32); LANES] = core::array::from_fn(|l| sample(scene, x + l as u32, y, 0));
+    let rays = samples.map(|(ray, _)| ray);
+    let hits = scratch.first_hits4(scene, &rays);
+    for (l, px) in four.iter_mut().enumerate() {
+        let color = trace_from(scene, (rays[l], hits[l]), samples[l].1, scratch, counts);
+        *px = Pixel::from_color(color);
+    }
+}
+
+/// Sample `k` of pixel `(x, y)` on the scene's `m × m` pattern: its ray, and the seed of its
+/// occlusion pattern.
+fn sample(scene: &Scene, x: u32, y: u32, k: u32) -> (Ray, u32) {
+    let m = scene.settings.samples.max(1);
+    let seed = pixel_seed(x, y);
+    let (dx, dy) = pixel_sample(seed, k, m);
+    let ray = scene.camera.ray(x as f32 + dx, y as f32 + dy);
+    (ray, mix(seed, k))
 }
 
 /// The mean of the `m × m` samples of pixel `(x, y)` (just the centre sample for `m = 1`). Counts
@@ -64,12 +109,10 @@ pub(crate) fn supersample(
 ) -> Vec3 {
     let m = scene.settings.samples.max(1);
     let n = m * m;
-    let seed = pixel_seed(x, y);
     let mut sum = Vec3::ZERO;
     for k in 0..n {
-        let (dx, dy) = pixel_sample(seed, k, m);
-        let ray = scene.camera.ray(x as f32 + dx, y as f32 + dy);
-        sum += trace(scene, ray, mix(seed, k), scratch, counts);
+        let (ray, seed) = sample(scene, x, y, k);
+        sum += trace(scene, ray, seed, scratch, counts);
     }
     if n == 1 {
         sum

@@ -25,6 +25,7 @@
 //! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
 //! nested transparent objects), so leaving an inner object returns to the outer one's index.
 
+use crate::accel::octree::LANES;
 use crate::geom::triangle::{hit_point, unit_normal};
 use crate::math::ray::{offset_ray_origin, Ray};
 use crate::render::intersect::{PrimitiveHit, QueryScratch};
@@ -118,6 +119,18 @@ pub struct TraceScratch {
     pending: Vec<Pending>,
     /// Per light, the primitive that blocked its last shadow ray (see [`Scene::shadowed`]).
     blockers: Vec<Option<u32>>,
+}
+
+impl TraceScratch {
+    /// The closest hits of four primary rays, for [`trace_from`] (their work is counted with
+    /// the next ray traced).
+    pub fn first_hits4(
+        &mut self,
+        scene: &Scene,
+        rays: &[Ray; LANES],
+    ) -> [Option<PrimitiveHit>; LANES] {
+        scene.closest_hits4(rays, f32::INFINITY, &mut self.query)
+    }
 }
 
 /// The surface at a hit, oriented towards the incoming ray.
@@ -312,7 +325,21 @@ pub fn trace(
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> Vec3 {
+    let hit = scene.closest_hit(&primary, f32::INFINITY, &mut scratch.query);
+    trace_from(scene, (primary, hit), seed, scratch, counts)
+}
+
+/// [`trace`] for a primary ray whose closest hit is known (found by
+/// [`Scene::closest_hits4`] with its neighbours').
+pub fn trace_from(
+    scene: &Scene,
+    (primary, first_hit): (Ray, Option<PrimitiveHit>),
+    seed: u32,
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> Vec3 {
     let settings = &scene.settings;
+    let mut first_hit = Some(first_hit);
     let mut color = Vec3::ZERO;
     scratch.pending.clear();
     scratch.pending.push(Pending {
@@ -325,7 +352,11 @@ pub fn trace(
     let mut bounce = 0u32;
     while let Some(p) = scratch.pending.pop() {
         let spans = &mut scratch.query;
-        let Some(hit) = scene.closest_hit(&p.ray, f32::INFINITY, spans) else {
+        let hit = match first_hit.take() {
+            Some(hit) => hit,
+            None => scene.closest_hit(&p.ray, f32::INFINITY, spans),
+        };
+        let Some(hit) = hit else {
             color += settings.background * p.weight;
             continue;
         };

@@ -21,6 +21,8 @@
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray
 //!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` and
 //!   `any_hit_grouped` hand a large leaf's primitives to their tests [`GROUP`] at a time.
+//! - [`closest_hits4`](Octree::closest_hits4) (in `packet.rs`) walks four neighbouring camera
+//!   rays together, one per vector lane, to the one-ray walk's answers.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
 //!
 //! The closest hit is the smallest `t`, ties going to the smallest triangle index; the octree
@@ -35,6 +37,8 @@ mod build;
 mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
+mod packet;
+pub use packet::LANES;
 mod traverse;
 pub use crate::geom::hit::GROUP;
 pub use traverse::{GroupBlocks, GroupTests};

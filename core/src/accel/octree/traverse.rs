@@ -23,11 +23,11 @@ use glam::{Vec3, Vec3A};
 
 /// How much a piece of a ray's interval is widened, relatively, around a crossing of a centre
 /// plane: twice the error bound of the three roundings in a crossing `(mid − o) · (1/d)`.
-const WIDEN: f32 = 2.0 * gamma(3);
+pub(super) const WIDEN: f32 = 2.0 * gamma(3);
 
 /// The stack entries a walk of a tree `depth` deep needs: each level pushes at most eight cells
 /// (the four on the ray's path and, where crossings tie, the others around them) and pops one.
-const fn stack_size(depth: u32) -> usize {
+pub(super) const fn stack_size(depth: u32) -> usize {
     7 * depth as usize + 2
 }
 
@@ -36,24 +36,45 @@ const fn stack_size(depth: u32) -> usize {
 const SHALLOW_DEPTH: u32 = 10;
 const MIDDLE_DEPTH: u32 = 14;
 
+/// A walk whose stack and path are sized at compile time, for [`sized`] to pick the size.
+pub(super) trait SizedWalk {
+    /// What the walk returns.
+    type Out;
+    /// Runs the walk with a stack of `S` entries and a path of `P` boxes, enough for a tree
+    /// `P − 1` deep (`S` = [`stack_size`]`(P − 1)`).
+    fn run<const S: usize, const P: usize>(self) -> Self::Out;
+}
+
+/// Runs `walk` with the smallest of three stack and path sizes that fits a tree `depth` deep.
+#[inline(always)]
+pub(super) fn sized<W: SizedWalk>(depth: u32, walk: W) -> W::Out {
+    if depth <= SHALLOW_DEPTH {
+        walk.run::<{ stack_size(SHALLOW_DEPTH) }, { SHALLOW_DEPTH as usize + 1 }>()
+    } else if depth <= MIDDLE_DEPTH {
+        walk.run::<{ stack_size(MIDDLE_DEPTH) }, { MIDDLE_DEPTH as usize + 1 }>()
+    } else {
+        walk.run::<{ stack_size(MAX_DEPTH_LIMIT) }, { MAX_DEPTH_LIMIT as usize + 1 }>()
+    }
+}
+
 /// The primitives one query has tested lately, direct-mapped by index. A primitive filed in
 /// several cells the ray crosses is then tested once instead of once per cell, as long as no
 /// other primitive took its slot in between. Skipping a repeat changes no answer: a test's hit
 /// does not depend on the bound it is given, only whether it is reported (see
 /// [`Octree::closest_hit_with`]), so a repeat could only report the same hit again or nothing.
-struct Mailbox([u32; MAILBOX_SLOTS]);
+pub(super) struct Mailbox([u32; MAILBOX_SLOTS]);
 
 const MAILBOX_SLOTS: usize = 16;
 
 impl Mailbox {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         // No primitive has index u32::MAX (indices count triangles and solids, both below it).
         Mailbox([u32::MAX; MAILBOX_SLOTS])
     }
 
     /// True the first time `i` is seen since its slot last held another primitive.
     #[inline(always)]
-    fn first_visit(&mut self, i: u32) -> bool {
+    pub(super) fn first_visit(&mut self, i: u32) -> bool {
         let slot = &mut self.0[i as usize % MAILBOX_SLOTS];
         let first = *slot != i;
         *slot = i;
@@ -141,12 +162,12 @@ fn in_groups(indices: &[u32], mailbox: &mut Mailbox, mut test: impl FnMut(&[u32]
 /// and which child of its parent it is. Its box is not stored: it is derived from the parent's
 /// when the cell is entered (see [`Path`]), so leaves and skipped cells never compute one.
 #[derive(Clone, Copy, Default)]
-struct Entry {
-    node: u32,
-    t0: f32,
-    t1: f32,
-    depth: u16,
-    child: u16,
+pub(super) struct Entry {
+    pub(super) node: u32,
+    pub(super) t0: f32,
+    pub(super) t1: f32,
+    pub(super) depth: u16,
+    pub(super) child: u16,
 }
 
 /// The box of the interior cell the walk entered last at each depth. The walk is depth first, so
@@ -158,22 +179,22 @@ struct Entry {
 /// a read that spans two narrower writes cannot be served from them (the processor waits until
 /// they reach the cache: 17.8 against 15.5 ns per cell, teapot_12's primary rays walked with a
 /// test that never hits).
-struct Path<const P: usize> {
+pub(super) struct Path<const P: usize> {
     boxes: [(Vec3A, Vec3A); P],
 }
 
 impl<const P: usize> Path<P> {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Path {
             boxes: [(Vec3A::ZERO, Vec3A::ZERO); P],
         }
     }
 
-    /// The box of the cell `e`, an interior node, which the walk enters now (remembered for its
-    /// children).
+    /// The box of the cell at `depth` that is child `child` of the cell entered last one level
+    /// up, an interior node the walk enters now (remembered for its children).
     #[inline(always)]
-    fn enter(&mut self, e: &Entry, root: Aabb) -> Aabb {
-        let d = e.depth as usize;
+    pub(super) fn enter(&mut self, depth: u16, child: u16, root: Aabb) -> Aabb {
+        let d = depth as usize;
         let cell = match d.checked_sub(1) {
             None => root,
             Some(up) => {
@@ -182,7 +203,7 @@ impl<const P: usize> Path<P> {
                     min: min.into(),
                     max: max.into(),
                 };
-                child_box(&parent, parent.center(), e.child as usize)
+                child_box(&parent, parent.center(), child as usize)
             }
         };
         self.boxes[d] = (cell.min.into(), cell.max.into());
@@ -361,20 +382,28 @@ impl Octree {
     /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
     /// Returns how many cells it entered.
     fn walk(&self, ray: &Ray, t_max: f32, leaf: impl FnMut(&[u32]) -> f32) -> u64 {
-        // Every query clears its stack and path: a tree no deeper than most clears less.
-        if self.stats.depth <= SHALLOW_DEPTH {
-            self.walk_in::<{ stack_size(SHALLOW_DEPTH) }, { SHALLOW_DEPTH as usize + 1 }>(
-                ray, t_max, leaf,
-            )
-        } else if self.stats.depth <= MIDDLE_DEPTH {
-            self.walk_in::<{ stack_size(MIDDLE_DEPTH) }, { MIDDLE_DEPTH as usize + 1 }>(
-                ray, t_max, leaf,
-            )
-        } else {
-            self.walk_in::<{ stack_size(MAX_DEPTH_LIMIT) }, { MAX_DEPTH_LIMIT as usize + 1 }>(
-                ray, t_max, leaf,
-            )
+        struct One<'a, F> {
+            tree: &'a Octree,
+            ray: &'a Ray,
+            t_max: f32,
+            leaf: F,
         }
+        impl<F: FnMut(&[u32]) -> f32> SizedWalk for One<'_, F> {
+            type Out = u64;
+            #[inline(always)]
+            fn run<const S: usize, const P: usize>(self) -> u64 {
+                self.tree.walk_in::<S, P>(self.ray, self.t_max, self.leaf)
+            }
+        }
+        sized(
+            self.stats.depth,
+            One {
+                tree: self,
+                ray,
+                t_max,
+                leaf,
+            },
+        )
     }
 
     /// [`Octree::walk`] with a stack of `S` entries and a path of `P` boxes, enough for a tree
@@ -426,7 +455,7 @@ impl Octree {
                 cutoff = leaf(&self.indices[start..start + node.count as usize]);
                 continue;
             }
-            let cell = path.enter(&e, self.root);
+            let cell = path.enter(e.depth, e.child, self.root);
             (top, next) = push_children(ray, inv_dir, &e, node, cell.center(), &mut stack, top);
         }
         cells
@@ -451,7 +480,7 @@ impl Octree {
 /// Pieces are written straight into the stack, field by field: a piece array returned by value
 /// and copied (an earlier version) made the processor wait for its stores on every interior cell.
 #[inline(always)]
-fn push_children<const S: usize>(
+pub(super) fn push_children<const S: usize>(
     ray: &Ray,
     inv_dir: Vec3,
     e: &Entry,

@@ -1,0 +1,502 @@
+//! Four rays walked together: the closest hits of neighbouring camera rays.
+//!
+//! Neighbouring camera rays cross mostly the same cells. [`Octree::closest_hits4`] walks four
+//! rays at once, one per lane of a [`Vec4`]: an interior cell computes the four rays'
+//! centre-plane crossings and their pieces in each child with a few vector operations
+//! ([`push_children4`]), where the one-ray walk does that work once per ray. A leaf's
+//! primitives are tested one ray at a time, by the caller's test, as in the one-ray walk.
+//!
+//! Each ray gets the one-ray walk's answer. Its pieces are the one-ray walk's to the bit: a
+//! crossing inside a ray's interval cuts it, widened by [`WIDEN`], and one outside decides the
+//! side by the same comparison as `push_children` in `traverse.rs`. Where a ray's crossings tie
+//! (a ray through a cell's edge or corner) its children are cut by that function itself
+//! ([`lanes_that_tie`]). So a ray enters the cells the one-ray walk enters, over the same
+//! intervals; only the order of cells off its computed path and the other rays' cells around
+//! them differ, and the closest hit (the smallest `t`, ties to the smallest index) does not
+//! depend on the order primitives are tested in.
+//!
+//! The four rays must go the same way along each axis (no zero component), so that one order of
+//! the children is nearest first for each of them: a ray passes through children in order of
+//! how many centre planes it has crossed, and these are popped in that order. Camera rays of
+//! neighbouring pixels almost always qualify; other packets are walked one ray at a time.
+
+use super::traverse::{push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
+use super::{Node, Octree};
+use crate::accel::work::QueryWork;
+use crate::geom::hit::{Closest, RayHit};
+use crate::math::ray::Ray;
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
+
+/// Rays per packet.
+pub const LANES: usize = 4;
+
+/// A cell waiting on the packet's stack: the four rays' intervals in it (empty, `t0 > t1`, for
+/// a ray that does not enter it), its node, depth and which child of its parent it is.
+#[derive(Clone, Copy)]
+struct Entry4 {
+    t0: Vec4,
+    t1: Vec4,
+    node: u32,
+    depth: u16,
+    child: u16,
+}
+
+impl Default for Entry4 {
+    fn default() -> Self {
+        Entry4 {
+            t0: Vec4::INFINITY,
+            t1: Vec4::NEG_INFINITY,
+            node: 0,
+            depth: 0,
+            child: 0,
+        }
+    }
+}
+
+/// The four rays as the walk reads them: per axis, the origins and reciprocal directions lane
+/// by lane, and which axes they all go down (`flip`: bit `a` set where the direction is
+/// negative along axis `a`).
+struct Packet<'a> {
+    rays: &'a [Ray; LANES],
+    inv_dir: [Vec3; LANES],
+    origin: [Vec4; 3],
+    lane_inv_dir: [Vec4; 3],
+    flip: usize,
+}
+
+impl<'a> Packet<'a> {
+    /// The packet, or `None` if the rays do not all go the same way along every axis.
+    fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
+        let flip = signs(rays[0].dir)?;
+        for r in &rays[1..] {
+            if signs(r.dir)? != flip {
+                return None;
+            }
+        }
+        // One vector division per ray, as the one-ray walk computes it.
+        let inv_dir = rays.map(|r| Vec3::from(Vec3A::ONE / Vec3A::from(r.dir)));
+        let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(3));
+        Some(Packet {
+            rays,
+            inv_dir,
+            origin: core::array::from_fn(|a| lanes(&|l| rays[l].origin[a])),
+            lane_inv_dir: core::array::from_fn(|a| lanes(&|l| inv_dir[l][a])),
+            flip,
+        })
+    }
+}
+
+/// Bit `a` set where `d` is negative along axis `a`; `None` if a component is zero or NaN.
+fn signs(d: Vec3) -> Option<usize> {
+    let mut flip = 0;
+    for (a, d) in d.to_array().into_iter().enumerate() {
+        if d < 0.0 {
+            flip |= 1 << a;
+        } else if d.is_nan() || d == 0.0 {
+            return None;
+        }
+    }
+    Some(flip)
+}
+
+/// The lanes set in `bits`, lowest first.
+fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        (bits != 0).then(|| {
+            let l = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            l
+        })
+    })
+}
+
+impl Octree {
+    /// The closest hits of four rays with `0 < t < t_max`, each what
+    /// [`Octree::closest_hit_with`] returns for it: `test(lane, index, bound)` tests primitive
+    /// `index` against ray `lane` as `test(index, bound)` does there. The cells entered and the
+    /// tests made are added to `work`.
+    pub fn closest_hits4<H: RayHit>(
+        &self,
+        rays: &[Ray; LANES],
+        t_max: f32,
+        work: &mut QueryWork,
+        mut test: impl FnMut(usize, u32, f32) -> Option<H>,
+    ) -> [Option<(u32, H)>; LANES] {
+        let Some(packet) = Packet::new(rays) else {
+            return core::array::from_fn(|l| {
+                self.closest_hit_with(&rays[l], t_max, work, |i, bound| test(l, i, bound))
+            });
+        };
+        let mut closest: [Closest<H>; LANES] = core::array::from_fn(|_| Closest::new(t_max));
+        for &i in &self.large {
+            for (l, c) in closest.iter_mut().enumerate() {
+                if let Some(h) = test(l, i, c.bound()) {
+                    c.offer(i, h);
+                }
+            }
+        }
+        let mut tests = (LANES * self.large.len()) as u64;
+        // A hit on a large primitive already bounds the ray's walk.
+        let t_max = closest.each_ref().map(|c| t_max.min(c.cutoff()));
+        let mut mailboxes: [Mailbox; LANES] = core::array::from_fn(|_| Mailbox::new());
+        work.octree_cells += self.walk4(&packet, t_max, |l, indices| {
+            for &i in indices {
+                if mailboxes[l].first_visit(i) {
+                    tests += 1;
+                    if let Some(h) = test(l, i, closest[l].bound()) {
+                        closest[l].offer(i, h);
+                    }
+                }
+            }
+            closest[l].cutoff()
+        });
+        work.intersection_tests += tests;
+        closest.map(|c| c.best())
+    }
+
+    /// Visits the non-empty leaves the packet's rays cross; `leaf(lane, indices)` is called for
+    /// each ray that enters the leaf, nearest leaves first for each ray, and returns that ray's
+    /// cut-off (cells it enters beyond it are skipped). Returns the cells entered, counted once
+    /// per ray that enters them.
+    fn walk4(
+        &self,
+        packet: &Packet,
+        t_max: [f32; LANES],
+        leaf: impl FnMut(usize, &[u32]) -> f32,
+    ) -> u64 {
+        struct Four<'a, 'b, F> {
+            tree: &'a Octree,
+            packet: &'a Packet<'b>,
+            t_max: [f32; LANES],
+            leaf: F,
+        }
+        impl<F: FnMut(usize, &[u32]) -> f32> SizedWalk for Four<'_, '_, F> {
+            type Out = u64;
+            #[inline(always)]
+            fn run<const S: usize, const P: usize>(self) -> u64 {
+                self.tree
+                    .walk4_in::<S, P>(self.packet, self.t_max, self.leaf)
+            }
+        }
+        sized(
+            self.stats.depth,
+            Four {
+                tree: self,
+                packet,
+                t_max,
+                leaf,
+            },
+        )
+    }
+
+    /// [`Octree::walk4`] with a stack of `S` entries and a path of `P` boxes. Each level pushes
+    /// at most eight cells and pops one, as the one-ray walk's does.
+    fn walk4_in<const S: usize, const P: usize>(
+        &self,
+        packet: &Packet,
+        t_max: [f32; LANES],
+        mut leaf: impl FnMut(usize, &[u32]) -> f32,
+    ) -> u64 {
+        let mut root = Entry4::default();
+        for (l, (ray, t_max)) in packet.rays.iter().zip(t_max).enumerate() {
+            if let Some((t0, t1)) = self.root.intersect(ray, packet.inv_dir[l], t_max) {
+                root.t0[l] = t0 * (1.0 - WIDEN);
+                root.t1[l] = t1;
+            }
+        }
+        let mut stack = [Entry4::default(); S];
+        let mut path = Path::<P>::new();
+        stack[0] = root;
+        let mut top = 1usize;
+        let mut cutoff = [f32::INFINITY; LANES];
+        let mut cells = 0u64;
+        while top > 0 {
+            top -= 1;
+            let e = stack[top];
+            let active = e.t0.cmple(e.t1) & e.t0.cmple(Vec4::from_array(cutoff));
+            let bits = active.bitmask();
+            if bits == 0 {
+                continue;
+            }
+            cells += u64::from(bits.count_ones());
+            let node = self.nodes[e.node as usize];
+            if node.is_leaf() {
+                let start = node.first as usize;
+                let indices = &self.indices[start..start + node.count as usize];
+                for l in lanes_of(bits) {
+                    cutoff[l] = leaf(l, indices);
+                }
+                continue;
+            }
+            let cell = path.enter(e.depth, e.child, self.root);
+            let e = Entry4 {
+                t0: Vec4::select(active, e.t0, Vec4::INFINITY),
+                t1: Vec4::select(active, e.t1, Vec4::NEG_INFINITY),
+                ..e
+            };
+            top = push_children4(packet, &e, node, cell.center(), &mut stack, top);
+        }
+        cells
+    }
+}
+
+/// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) with
+/// the pieces of the four rays' intervals in them, farthest first; returns the new stack top.
+///
+/// Per axis, a ray's crossing `c` of the centre plane cuts its interval if it lies inside: the
+/// ray is in the half it starts in until `c·(1 + WIDEN)` and in the other from `c·(1 − WIDEN)`.
+/// A crossing outside leaves the ray in one half, the one `push_children` picks. Child `r`
+/// counted from the ray's side (bit `a` set: the half reached second along axis `a`) starts at
+/// the latest widened crossing it is past and ends at the earliest it is before, or at the
+/// interval's ends where there is none: the one-ray walk's pieces, where crossings do not tie.
+#[inline(always)]
+fn push_children4<const S: usize>(
+    packet: &Packet,
+    e: &Entry4,
+    node: Node,
+    mid: Vec3,
+    stack: &mut [Entry4; S],
+    mut top: usize,
+) -> usize {
+    let (t0, t1) = (e.t0, e.t1);
+    // Per axis, where each ray may start in the half it reaches second (`lo`) and must have
+    // left the half it starts in (`hi`): ±∞ where it stays in one half.
+    let mut lo = [Vec4::ZERO; 3];
+    let mut hi = [Vec4::ZERO; 3];
+    let mut inside = [BVec4A::FALSE; 3];
+    for a in 0..3 {
+        let gap = Vec4::splat(mid[a]) - packet.origin[a];
+        // An origin on the plane crosses it at 0, also where `1/d` overflows (0 · ∞).
+        let c = Vec4::select(
+            gap.cmpeq(Vec4::ZERO),
+            Vec4::ZERO,
+            gap * packet.lane_inv_dir[a],
+        );
+        inside[a] = c.cmpgt(t0) & c.cmplt(t1);
+        let side = Vec4::select(t0.cmpge(c), Vec4::NEG_INFINITY, Vec4::INFINITY);
+        lo[a] = Vec4::select(inside[a], c * (1.0 - WIDEN), side);
+        hi[a] = Vec4::select(inside[a], c * (1.0 + WIDEN), side);
+    }
+    // Starts: the latest `lo` of the axes crossed (t0 where all are -∞, none crossed inside).
+    let s1 = lo[0];
+    let s2 = lo[1];
+    let s3 = s1.max(lo[1]);
+    let mut starts = [
+        t0,
+        s1,
+        s2,
+        s3,
+        lo[2],
+        s1.max(lo[2]),
+        s2.max(lo[2]),
+        s3.max(lo[2]),
+    ];
+    // Ends: the earliest `hi` of the axes not crossed (t1 where all are +∞).
+    let e6 = hi[0];
+    let e5 = hi[1];
+    let e4 = e6.min(hi[1]);
+    let mut ends = [
+        e4.min(hi[2]),
+        e5.min(hi[2]),
+        e6.min(hi[2]),
+        hi[2],
+        e4,
+        e5,
+        e6,
+        t1,
+    ];
+    for r in 1..8 {
+        starts[r] = Vec4::select(starts[r].cmpeq(Vec4::NEG_INFINITY), t0, starts[r]);
+        ends[7 - r] = Vec4::select(ends[7 - r].cmpeq(Vec4::INFINITY), t1, ends[7 - r]);
+    }
+    let ties = lanes_that_tie(&lo, &hi, &inside);
+    if ties != 0 {
+        one_ray_pieces(packet, e, node, mid, ties, (&mut starts, &mut ends));
+    }
+    // Farthest first: a ray passes through children in order of the planes crossed.
+    for r in [7, 6, 5, 3, 4, 2, 1, 0] {
+        let c = r ^ packet.flip;
+        if node.child_occupied(c) && starts[r].cmple(ends[r]).any() {
+            stack[top] = Entry4 {
+                t0: starts[r],
+                t1: ends[r],
+                node: node.first + c as u32,
+                depth: e.depth + 1,
+                child: c as u16,
+            };
+            top += 1;
+        }
+    }
+    top
+}
+
+/// The lanes in which two crossings inside the interval are too close to order: their widened
+/// values overlap (the one-ray walk's `tie`, taken over every pair).
+#[inline(always)]
+fn lanes_that_tie(lo: &[Vec4; 3], hi: &[Vec4; 3], inside: &[BVec4A; 3]) -> u32 {
+    let pair = |a: usize, b: usize| inside[a] & inside[b] & lo[b].cmple(hi[a]) & lo[a].cmple(hi[b]);
+    (pair(0, 1) | pair(1, 2) | pair(0, 2)).bitmask()
+}
+
+/// Replaces the pieces of the rays in `ties` by the ones the one-ray walk cuts
+/// (`push_children`, which also enters the cells around crossings that tie). Rare: rays through
+/// cells' edges and corners.
+#[cold]
+#[inline(never)]
+fn one_ray_pieces(
+    packet: &Packet,
+    e: &Entry4,
+    node: Node,
+    mid: Vec3,
+    ties: u32,
+    (starts, ends): (&mut [Vec4; 8], &mut [Vec4; 8]),
+) {
+    for l in lanes_of(ties) {
+        let one = Entry {
+            node: e.node,
+            t0: e.t0[l],
+            t1: e.t1[l],
+            depth: e.depth,
+            child: e.child,
+        };
+        // At most eight children, each pushed once.
+        let mut pushed = [Entry::default(); 8];
+        let (n, nearest) = push_children(
+            &packet.rays[l],
+            packet.inv_dir[l],
+            &one,
+            node,
+            mid,
+            &mut pushed,
+            0,
+        );
+        for r in 0..8 {
+            starts[r][l] = f32::INFINITY;
+            ends[r][l] = f32::NEG_INFINITY;
+        }
+        for p in pushed[..n].iter().chain(nearest.as_ref()) {
+            let r = p.child as usize ^ packet.flip;
+            starts[r][l] = p.t0;
+            ends[r][l] = p.t1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::octree::{xorshift, INTERIOR};
+
+    /// Every child's piece of every ray, as `(child, t0 bits, t1 bits)`, sorted.
+    type Pieces = alloc::vec::Vec<(u16, u32, u32)>;
+
+    fn one_ray(packet: &Packet, e: &Entry4, node: Node, mid: Vec3, l: usize) -> Pieces {
+        let one = Entry {
+            node: e.node,
+            t0: e.t0[l],
+            t1: e.t1[l],
+            depth: e.depth,
+            child: e.child,
+        };
+        let mut stack = [Entry::default(); 8];
+        let (n, nearest) = push_children(
+            &packet.rays[l],
+            packet.inv_dir[l],
+            &one,
+            node,
+            mid,
+            &mut stack,
+            0,
+        );
+        let mut p: Pieces = stack[..n]
+            .iter()
+            .chain(nearest.as_ref())
+            .map(|p| (p.child, p.t0.to_bits(), p.t1.to_bits()))
+            .collect();
+        p.sort_unstable();
+        p
+    }
+
+    fn four_rays(packet: &Packet, e: &Entry4, node: Node, mid: Vec3, l: usize) -> Pieces {
+        let mut stack = [Entry4::default(); 8];
+        let n = push_children4(packet, e, node, mid, &mut stack, 0);
+        let mut p: Pieces = stack[..n]
+            .iter()
+            .filter(|p| p.t0[l] <= p.t1[l])
+            .map(|p| (p.child, p.t0[l].to_bits(), p.t1[l].to_bits()))
+            .collect();
+        p.sort_unstable();
+        p
+    }
+
+    /// The pieces the packet cuts are the one-ray walk's, bit for bit, for rays in general
+    /// position and for rays through a cell's centre, edges and corners (crossings that tie).
+    #[test]
+    fn pieces_are_the_one_ray_walks() {
+        let mut next = xorshift(7);
+        let mut unit = move || (next() >> 8) as f32 / (1 << 24) as f32;
+        let node = Node {
+            first: 8,
+            count: INTERIOR | 0xff,
+        };
+        let (mut ties, mut cut) = (0, 0);
+        for case in 0..20_000 {
+            let mid = Vec3::new(unit(), unit(), unit()) * 4.0 - 2.0;
+            let signs = Vec3::new(1.0, -1.0, 1.0).map(|s| if unit() < 0.5 { s } else { -s });
+            let rays: [Ray; LANES] = core::array::from_fn(|_| {
+                let dir = (Vec3::new(unit(), unit(), unit()) + 0.01) * signs;
+                let origin = if case % 2 == 0 {
+                    // Through the centre: the three crossings tie (up to rounding).
+                    mid - dir * (1.0 + 9.0 * unit())
+                } else {
+                    Vec3::new(unit(), unit(), unit()) * 20.0 - 10.0
+                };
+                Ray::new(origin, dir)
+            });
+            let Some(packet) = Packet::new(&rays) else {
+                continue;
+            };
+            let mut e = Entry4::default();
+            for l in 0..LANES {
+                let (a, b) = (unit() * 30.0, unit() * 30.0);
+                (e.t0[l], e.t1[l]) = (a.min(b), a.max(b));
+            }
+            let lo_hi: [(Vec4, Vec4, BVec4A); 3] = core::array::from_fn(|a| {
+                let gap = Vec4::splat(mid[a]) - packet.origin[a];
+                let c = gap * packet.lane_inv_dir[a];
+                let inside = c.cmpgt(e.t0) & c.cmplt(e.t1);
+                (c * (1.0 - WIDEN), c * (1.0 + WIDEN), inside)
+            });
+            let tie = lanes_that_tie(
+                &lo_hi.map(|x| x.0),
+                &lo_hi.map(|x| x.1),
+                &lo_hi.map(|x| x.2),
+            );
+            ties += tie.count_ones();
+            for l in 0..LANES {
+                let want = one_ray(&packet, &e, node, mid, l);
+                cut += usize::from(want.len() > 1);
+                assert_eq!(
+                    four_rays(&packet, &e, node, mid, l),
+                    want,
+                    "case {case} lane {l}"
+                );
+            }
+        }
+        assert!(ties > 5_000, "only {ties} rays with tied crossings");
+        assert!(cut > 15_000, "only {cut} rays cut into several pieces");
+    }
+
+    #[test]
+    fn rays_of_mixed_or_zero_signs_are_not_a_packet() {
+        let ray = |d: Vec3| Ray::new(Vec3::ZERO, d);
+        let same = [ray(Vec3::new(1.0, -1.0, 2.0)); LANES];
+        assert_eq!(Packet::new(&same).map(|p| p.flip), Some(0b010));
+        let mut mixed = same;
+        mixed[3] = ray(Vec3::new(1.0, 1.0, 2.0));
+        assert!(Packet::new(&mixed).is_none());
+        let mut zero = same;
+        zero[1] = ray(Vec3::new(1.0, -0.0, 2.0));
+        assert!(Packet::new(&zero).is_none());
+    }
+}

@@ -1,0 +1,134 @@
+//! Four rays walked together (`Octree::closest_hits4`) find, each, exactly the triangle and the
+//! bit-identical `t` it finds walked alone, and the triangle testing every triangle finds: on
+//! soups, closed meshes and grids whose edges lie on the octree's centre planes, with packets
+//! of neighbouring rays as a camera sends them and rays through cell edges and corners.
+
+use glam::Vec3;
+use strahl_core::accel::octree::{brute_force_closest_hit, Octree, OctreeParams, LANES};
+use strahl_core::accel::work::QueryWork;
+use strahl_core::geom::triangle::{intersect, RayFrame};
+use strahl_core::math::ray::Ray;
+use strahl_core::scene::mesh::Rng;
+use strahl_core_tests::meshes::{boundary_grid, bounds, closed_sphere, positions, random_soup};
+
+fn key(h: Option<(u32, f32)>) -> Option<(u32, u32)> {
+    h.map(|(i, t)| (i, t.to_bits()))
+}
+
+/// Compares the four rays' hits walked together with each walked alone and with brute force.
+/// Returns how many of them hit.
+fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
+    let frames = rays.each_ref().map(RayFrame::new);
+    let mut work = QueryWork::default();
+    let four = tree.closest_hits4(rays, f32::INFINITY, &mut work, |l, i, bound| {
+        intersect(&frames[l], &tris[i as usize], bound)
+    });
+    let mut hits = 0;
+    for (l, ray) in rays.iter().enumerate() {
+        let alone = tree.closest_hit(tris, ray, f32::INFINITY);
+        let got = key(four[l].map(|(i, h)| (i, h.t)));
+        assert_eq!(
+            got,
+            key(alone.map(|h| (h.triangle, h.tri.t))),
+            "lane {l}: {ray:?}"
+        );
+        let brute = brute_force_closest_hit(tris, ray, f32::INFINITY);
+        assert_eq!(
+            got,
+            key(brute.map(|h| (h.triangle, h.tri.t))),
+            "lane {l}: {ray:?}"
+        );
+        hits += usize::from(got.is_some());
+    }
+    hits
+}
+
+/// Packets as a camera sends them: from one eye around the triangles' bounds, four directions
+/// a small step apart, aimed at random points, vertices or points on faces.
+fn camera_packets(tris: &[[Vec3; 3]], n: usize, seed: u64) -> usize {
+    let tree = Octree::build(tris, &OctreeParams::default());
+    let (lo, hi) = bounds(tris);
+    let ext = hi - lo;
+    let mut rng = Rng::new(seed);
+    let mut hits = 0;
+    for i in 0..n {
+        let eye =
+            lo - ext * 0.5 + ext * 2.0 * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let t = &tris[(rng.next_u64() % tris.len() as u64) as usize];
+        let target = match i % 3 {
+            0 => lo + ext * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+            1 => t[(rng.next_u64() % 3) as usize],
+            _ => (t[0] + t[1] + t[2]) / 3.0,
+        };
+        let step = ext.length() * 1e-3 * rng.next_f32();
+        let right = (target - eye).cross(Vec3::Z).normalize_or(Vec3::X) * step;
+        let rays = std::array::from_fn(|l| Ray::new(eye, target + right * l as f32 - eye));
+        hits += check(&tree, tris, &rays);
+    }
+    hits
+}
+
+#[test]
+fn random_soup_packets() {
+    let tris = random_soup(600, &mut Rng::new(3));
+    let hits = camera_packets(&tris, 10_000, 21);
+    assert!(hits > 10_000, "too few hits ({hits}) to mean anything");
+}
+
+#[test]
+fn closed_sphere_packets() {
+    let tris = positions(&closed_sphere(40, 20, 0.02, &mut Rng::new(4)));
+    let hits = camera_packets(&tris, 8_000, 22);
+    assert!(hits > 10_000, "too few hits ({hits}) to mean anything");
+}
+
+/// A grid whose edges and vertices lie on the centre planes, with rays from grid points along
+/// diagonals: their crossings of two or three centre planes tie, at cell edges and corners.
+#[test]
+fn grid_packets_through_cell_edges_and_corners() {
+    let tris = positions(&boundary_grid(16));
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    let (lo, hi) = bounds(&tris);
+    let cell = (hi - lo) / 16.0;
+    let mut rng = Rng::new(23);
+    let mut hits = 0;
+    for i in 0..6_000 {
+        let grid_point = |rng: &mut Rng| {
+            let k = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 20.0;
+            lo - cell * 2.0 + cell * k.floor()
+        };
+        let signs = Vec3::new(1.0, -1.0, 1.0).map(|s| if rng.next_f32() < 0.5 { s } else { -s });
+        let rays = std::array::from_fn(|l| {
+            let mut dir = Vec3::ONE;
+            if i % 2 == 1 && l > 0 {
+                dir[l % 3] = 2.0; // along a face diagonal and off it
+            }
+            Ray::new(grid_point(&mut rng), dir * cell * signs)
+        });
+        hits += check(&tree, &tris, &rays);
+    }
+    assert!(hits > 2_000, "too few hits ({hits}) to mean anything");
+}
+
+/// Packets whose rays go different ways, or have a zero component, are walked one ray at a time
+/// and give the same answers.
+#[test]
+fn mixed_packets() {
+    let tris = random_soup(300, &mut Rng::new(5));
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    let (lo, hi) = bounds(&tris);
+    let mut rng = Rng::new(24);
+    let mut hits = 0;
+    for i in 0..5_000 {
+        let rays = std::array::from_fn(|l| {
+            let origin = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let mut dir = rng.direction();
+            if (i + l) % 5 == 0 {
+                dir[l % 3] = 0.0;
+            }
+            Ray::new(origin, dir)
+        });
+        hits += check(&tree, &tris, &rays);
+    }
+    assert!(hits > 2_000, "too few hits ({hits}) to mean anything");
+}

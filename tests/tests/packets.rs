@@ -1,0 +1,143 @@
+//! Four neighbouring camera rays find their first hits together (`Scene::closest_hits4`, which
+//! `render_line` uses for one sample per pixel): each ray's hit is the one it finds alone, and
+//! the pixels are those of tracing each pixel's ray alone, on scenes of every kind of primitive.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use strahl_core::accel::octree::{OctreeParams, LANES};
+use strahl_core::render::intersect::QueryScratch;
+use strahl_core::render::pixel::Pixel;
+use strahl_core::render::render_line;
+use strahl_core::render::sampling::{mix, pixel_sample, pixel_seed};
+use strahl_core::render::shade::{trace, TraceScratch};
+use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::Scene;
+use strahl_formats::load::{load_config_scene, load_scene, Overrides};
+
+fn overrides(width: u32, height: u32) -> Overrides {
+    Overrides {
+        width: Some(width),
+        height: Some(height),
+        samples: Some(1),
+        ..Overrides::default()
+    }
+}
+
+fn build(desc: &strahl_core::scene::SceneDesc) -> Scene {
+    Scene::build(desc, &OctreeParams::default()).expect("valid scene")
+}
+
+/// An NFF scene of every primitive the octree files: spheres, cones, polygons, patches, a
+/// floor, mirrors; `n × n` spheres on the floor.
+fn nff_scene(n: u32) -> String {
+    let mut s = String::from(
+        "b 0.1 0.2 0.3\nv\nfrom 9 -14 7\nat 0 0 0.5\nup 0 0 1\nangle 35\nhither 0.01\n\
+         resolution 64 48\nl 8 -6 12\nl -9 -4 9\nf 0.9 0.6 0.3 0.6 0.3 20 0 1\n\
+         p 4\n-20 -20 0\n20 -20 0\n20 20 0\n-20 20 0\nf 0.3 0.7 0.9 0.5 0.4 30 0.3 1\n",
+    );
+    for i in 0..n {
+        for j in 0..n {
+            let (x, y) = (i as f32 - n as f32 / 2.0, j as f32 - n as f32 / 2.0);
+            writeln!(s, "s {x} {y} 0.45 0.45").expect("write to a String");
+            writeln!(s, "c\n{x} {y} 0.9 0.1\n{} {} 1.6 0.02", x + 0.3, y + 0.2)
+                .expect("write to a String");
+        }
+    }
+    s.push_str("f 0.8 0.8 0.2 0.7 0.2 40 0 1\npp 3\n-3 5 0 0 -1 1\n3 5 0 0 -1 1\n0 5 4 0 -1 0.2\n");
+    s
+}
+
+/// For every line: the four-ray hits against the one-ray hits, and `render_line`'s pixels
+/// against each pixel's ray traced alone. Returns how many packets went the same way along
+/// every axis (walked together).
+fn compare(scene: &Scene) -> usize {
+    let (w, h) = (scene.settings.width, scene.settings.height);
+    let mut query = QueryScratch::default();
+    let mut scratch = TraceScratch::default();
+    let mut counts = RayCounts::default();
+    let mut line = vec![Pixel::default(); w as usize];
+    let mut together = 0;
+    for y in 0..h {
+        let samples: Vec<_> = (0..w)
+            .map(|x| {
+                let seed = pixel_seed(x, y);
+                let (dx, dy) = pixel_sample(seed, 0, 1);
+                (scene.camera.ray(x as f32 + dx, y as f32 + dy), mix(seed, 0))
+            })
+            .collect();
+        for (k, four) in samples.chunks_exact(LANES).enumerate() {
+            let rays: [_; LANES] = std::array::from_fn(|l| four[l].0);
+            let signs = |l: usize| rays[l].dir.to_array().map(|d| d < 0.0);
+            together += usize::from((1..LANES).all(|l| signs(l) == signs(0)));
+            let hits = scene.closest_hits4(&rays, f32::INFINITY, &mut query);
+            for (l, ray) in rays.iter().enumerate() {
+                let alone = scene.closest_hit(ray, f32::INFINITY, &mut query);
+                assert_eq!(hits[l], alone, "line {y}, pixel {}", k * LANES + l);
+            }
+        }
+        render_line(scene, y, &mut line).expect("line renders");
+        for (x, &(ray, seed)) in samples.iter().enumerate() {
+            let alone = Pixel::from_color(trace(scene, ray, seed, &mut scratch, &mut counts));
+            assert_eq!(line[x], alone, "line {y}, pixel {x}");
+        }
+    }
+    together
+}
+
+#[test]
+fn nff_primitives_of_every_kind() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("kinds.nff");
+    std::fs::write(&path, nff_scene(5)).expect("write scene");
+    // 66 wide: the last two pixels of a line go one at a time.
+    let loaded = load_scene(&path, &overrides(66, 50)).expect("scene loads");
+    let together = compare(&build(&loaded.desc));
+    assert!(together > 600, "only {together} packets walked together");
+}
+
+/// Hundreds of spheres crowded into one spot: leaves too large to split, whose spheres the
+/// queries test in groups (there the rays go one at a time).
+#[test]
+fn crowded_spheres_tested_in_groups() {
+    let mut s = nff_scene(0);
+    for k in 0..400u32 {
+        let f = |m: u32| (k * m % 97) as f32 / 97.0 - 0.5;
+        writeln!(
+            s,
+            "s {} {} {} {}",
+            f(31),
+            f(57),
+            1.0 + f(71),
+            0.3 + f(13) * 0.4
+        )
+        .expect("write to a String");
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("crowd.nff");
+    std::fs::write(&path, s).expect("write scene");
+    let loaded = load_scene(&path, &overrides(48, 36)).expect("scene loads");
+    let scene = build(&loaded.desc);
+    assert!(scene.group_spheres, "the crowd's spheres are not grouped");
+    compare(&scene);
+}
+
+#[test]
+fn the_fart_scenes_and_the_room() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    for name in ["die", "glass", "mirrors", "ring"] {
+        let path = root.join(format!("fart/{name}.fart"));
+        let loaded = load_scene(&path, &overrides(40, 30)).expect("scene loads");
+        let together = compare(&build(&loaded.desc));
+        assert!(
+            together > 100,
+            "{name}: only {together} packets walked together"
+        );
+    }
+    let cfg = root.join("room/raytracer.cfg");
+    let room = load_config_scene(&cfg, &overrides(80, 60)).expect("room loads");
+    let together = compare(&build(&room.desc));
+    assert!(
+        together > 500,
+        "room: only {together} packets walked together"
+    );
+}
