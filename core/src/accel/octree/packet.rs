@@ -41,11 +41,12 @@ struct Entry4 {
     child: u16,
 }
 
+/// All zero: what fills the stack above its top (the compiler clears it with one fill).
 impl Default for Entry4 {
     fn default() -> Self {
         Entry4 {
-            t0: Vec4::INFINITY,
-            t1: Vec4::NEG_INFINITY,
+            t0: Vec4::ZERO,
+            t1: Vec4::ZERO,
             node: 0,
             depth: 0,
             child: 0,
@@ -197,7 +198,11 @@ impl Octree {
         t_max: [f32; LANES],
         mut leaf: impl FnMut(usize, &[u32]) -> f32,
     ) -> u64 {
-        let mut root = Entry4::default();
+        let mut root = Entry4 {
+            t0: Vec4::INFINITY,
+            t1: Vec4::NEG_INFINITY,
+            ..Entry4::default()
+        };
         for (l, (ray, t_max)) in packet.rays.iter().zip(t_max).enumerate() {
             if let Some((t0, t1)) = self.root.intersect(ray, packet.inv_dir[l], t_max) {
                 root.t0[l] = t0 * (1.0 - WIDEN);
@@ -206,13 +211,21 @@ impl Octree {
         }
         let mut stack = [Entry4::default(); S];
         let mut path = Path::<P>::new();
-        stack[0] = root;
-        let mut top = 1usize;
+        // The cell to enter next when it is not on the stack: the nearest child of the cell
+        // entered last, kept in registers, as in the one-ray walk.
+        let mut next = Some(root);
+        let mut top = 0usize;
         let mut cutoff = [f32::INFINITY; LANES];
         let mut cells = 0u64;
-        while top > 0 {
-            top -= 1;
-            let e = stack[top];
+        loop {
+            let e = match next.take() {
+                Some(e) => e,
+                None if top > 0 => {
+                    top -= 1;
+                    stack[top]
+                }
+                None => break,
+            };
             let active = e.t0.cmple(e.t1) & e.t0.cmple(Vec4::from_array(cutoff));
             let bits = active.bitmask();
             if bits == 0 {
@@ -234,14 +247,15 @@ impl Octree {
                 t1: Vec4::select(active, e.t1, Vec4::NEG_INFINITY),
                 ..e
             };
-            top = push_children4(packet, &e, node, cell.center(), &mut stack, top);
+            (top, next) = push_children4(packet, &e, node, cell.center(), &mut stack, top);
         }
         cells
     }
 }
 
 /// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) with
-/// the pieces of the four rays' intervals in them, farthest first; returns the new stack top.
+/// the pieces of the four rays' intervals in them, farthest first; returns the new stack top
+/// and the nearest child, which it does not push: the walk enters it next.
 ///
 /// Per axis, a ray's crossing `c` of the centre plane cuts its interval if it lies inside: the
 /// ray is in the half it starts in until `c·(1 + WIDEN)` and in the other from `c·(1 − WIDEN)`.
@@ -257,7 +271,7 @@ fn push_children4<const S: usize>(
     mid: Vec3,
     stack: &mut [Entry4; S],
     mut top: usize,
-) -> usize {
+) -> (usize, Option<Entry4>) {
     let (t0, t1) = (e.t0, e.t1);
     // Per axis, where each ray may start in the half it reaches second (`lo`) and must have
     // left the half it starts in (`hi`): ±∞ where it stays in one half.
@@ -313,21 +327,25 @@ fn push_children4<const S: usize>(
     if ties != 0 {
         one_ray_pieces(packet, e, node, mid, ties, (&mut starts, &mut ends));
     }
-    // Farthest first: a ray passes through children in order of the planes crossed.
+    // Farthest first: a ray passes through children in order of the planes crossed. The
+    // nearest is not pushed but returned.
+    let mut nearest = None;
     for r in [7, 6, 5, 3, 4, 2, 1, 0] {
         let c = r ^ packet.flip;
         if node.child_occupied(c) && starts[r].cmple(ends[r]).any() {
-            stack[top] = Entry4 {
+            if let Some(farther) = nearest.replace(Entry4 {
                 t0: starts[r],
                 t1: ends[r],
                 node: node.first + c as u32,
                 depth: e.depth + 1,
                 child: c as u16,
-            };
-            top += 1;
+            }) {
+                stack[top] = farther;
+                top += 1;
+            }
         }
     }
-    top
+    (top, nearest)
 }
 
 /// The lanes in which two crossings inside the interval are too close to order: their widened
@@ -419,9 +437,10 @@ mod tests {
 
     fn four_rays(packet: &Packet, e: &Entry4, node: Node, mid: Vec3, l: usize) -> Pieces {
         let mut stack = [Entry4::default(); 8];
-        let n = push_children4(packet, e, node, mid, &mut stack, 0);
+        let (n, nearest) = push_children4(packet, e, node, mid, &mut stack, 0);
         let mut p: Pieces = stack[..n]
             .iter()
+            .chain(nearest.as_ref())
             .filter(|p| p.t0[l] <= p.t1[l])
             .map(|p| (p.child, p.t0[l].to_bits(), p.t1[l].to_bits()))
             .collect();
