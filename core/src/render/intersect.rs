@@ -11,12 +11,12 @@
 //! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
 //! [`QueryWork`].
 
-use crate::accel::octree::{GroupBlocks, GroupTests, LANES};
+use crate::accel::octree::{lanes_of, GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
-use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
+use crate::geom::triangle::{intersect, may_hit4, RayFrame, RayFrame4, TriangleHit};
 use crate::math::ray::Ray;
 use crate::scene::Scene;
 
@@ -236,18 +236,43 @@ impl Scene {
             return core::array::from_fn(|l| self.closest_hit(&rays[l], t_max, scratch));
         }
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
-        if self.solids.is_empty() {
-            let frames = rays.each_ref().map(RayFrame::new);
-            let hits = self.octree.closest_hits4(rays, t_max, work, |l, i, bound| {
-                intersect(&frames[l], &self.triangle_points[i as usize], bound)
-            });
-            return hits.map(|h| h.map(|(i, h)| PrimitiveHit::Triangle(i, h)));
-        }
         let frames = rays.each_ref().map(QueryFrame::new);
-        let hits = self.octree.closest_hits4(rays, t_max, work, |l, i, bound| {
-            self.test_primitive(&frames[l], &rays[l], i, bound, spans)
-        });
-        core::array::from_fn(|l| self.closest_unbounded(&rays[l], t_max, hits[l], spans, work))
+        let lanes = RayFrame4::new(&frames.each_ref().map(|f| f.triangles));
+        let n = self.triangle_points.len() as u32;
+        let hits = self
+            .octree
+            .closest_hits4(rays, t_max, work, |lanes_in, i, closest| {
+                let Some(triangle) = self.triangle_points.get(i as usize) else {
+                    for l in lanes_of(lanes_in) {
+                        let (j, bound) = (i - n, closest[l].bound());
+                        let hit = self.solids.first_hit_in_box(
+                            j,
+                            &rays[l],
+                            frames[l].inv_dir,
+                            bound,
+                            spans,
+                        );
+                        if let Some(h) = hit {
+                            closest[l].offer(i, PrimitiveHit::Solid(j, h));
+                        }
+                    }
+                    return;
+                };
+                // Four rays' edge functions at once, where they share an axis permutation: most
+                // tests end there.
+                let may_hit = lanes
+                    .as_ref()
+                    .map_or(lanes_in, |f| may_hit4(f, triangle, lanes_in));
+                for l in lanes_of(may_hit) {
+                    if let Some(h) = intersect(&frames[l].triangles, triangle, closest[l].bound()) {
+                        closest[l].offer(i, PrimitiveHit::Triangle(i, h));
+                    }
+                }
+            });
+        core::array::from_fn(|l| {
+            let best = hits[l];
+            self.closest_unbounded(&rays[l], t_max, best, spans, work)
+        })
     }
 
     /// The closer of `best` and the unbounded solids' closest hit of `ray` (their tests added

@@ -4,7 +4,7 @@
 //! of neighbouring rays as a camera sends them and rays through cell edges and corners.
 
 use glam::Vec3;
-use strahl_core::accel::octree::{brute_force_closest_hit, Octree, OctreeParams, LANES};
+use strahl_core::accel::octree::{brute_force_closest_hit, lanes_of, Octree, OctreeParams, LANES};
 use strahl_core::accel::work::QueryWork;
 use strahl_core::geom::triangle::{intersect, RayFrame};
 use strahl_core::math::ray::Ray;
@@ -20,8 +20,12 @@ fn key(h: Option<(u32, f32)>) -> Option<(u32, u32)> {
 fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
     let frames = rays.each_ref().map(RayFrame::new);
     let mut work = QueryWork::default();
-    let four = tree.closest_hits4(rays, f32::INFINITY, &mut work, |l, i, bound| {
-        intersect(&frames[l], &tris[i as usize], bound)
+    let four = tree.closest_hits4(rays, f32::INFINITY, &mut work, |lanes, i, closest| {
+        for l in lanes_of(lanes) {
+            if let Some(h) = intersect(&frames[l], &tris[i as usize], closest[l].bound()) {
+                closest[l].offer(i, h);
+            }
+        }
     });
     let mut hits = 0;
     for (l, ray) in rays.iter().enumerate() {

@@ -100,8 +100,8 @@ fn signs(d: Vec3) -> Option<usize> {
     Some(flip)
 }
 
-/// The lanes set in `bits`, lowest first.
-fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
+/// The lanes set in `bits` (bit `l` for lane `l`), lowest first.
+pub fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
         (bits != 0).then(|| {
             let l = bits.trailing_zeros() as usize;
@@ -113,57 +113,60 @@ fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
 
 impl Octree {
     /// The closest hits of four rays with `0 < t < t_max`, each what
-    /// [`Octree::closest_hit_with`] returns for it: `test(lane, index, bound)` tests primitive
-    /// `index` against ray `lane` as `test(index, bound)` does there. The cells entered and the
-    /// tests made are added to `work`.
+    /// [`Octree::closest_hit_with`] returns for it. `test(lanes, index, closest)` tests primitive
+    /// `index` against the rays in `lanes` (bit `l` for ray `l`) and offers each ray's hit with
+    /// `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it there. The
+    /// cells entered and the tests made are added to `work`.
     pub fn closest_hits4<H: RayHit>(
         &self,
         rays: &[Ray; LANES],
         t_max: f32,
         work: &mut QueryWork,
-        mut test: impl FnMut(usize, u32, f32) -> Option<H>,
+        mut test: impl FnMut(u32, u32, &mut [Closest<H>; LANES]),
     ) -> [Option<(u32, H)>; LANES] {
+        let mut closest: [Closest<H>; LANES] = core::array::from_fn(|_| Closest::new(t_max));
         let Some(packet) = Packet::new(rays) else {
             return core::array::from_fn(|l| {
-                self.closest_hit_with(&rays[l], t_max, work, |i, bound| test(l, i, bound))
+                self.closest_hit_with(&rays[l], t_max, work, |i, bound| {
+                    closest[l] = Closest::new(bound);
+                    test(1 << l, i, &mut closest);
+                    closest[l].best().map(|(_, h)| h)
+                })
             });
         };
-        let mut closest: [Closest<H>; LANES] = core::array::from_fn(|_| Closest::new(t_max));
         for &i in &self.large {
-            for (l, c) in closest.iter_mut().enumerate() {
-                if let Some(h) = test(l, i, c.bound()) {
-                    c.offer(i, h);
-                }
-            }
+            test((1 << LANES) - 1, i, &mut closest);
         }
         let mut tests = (LANES * self.large.len()) as u64;
         // A hit on a large primitive already bounds the ray's walk.
         let t_max = closest.each_ref().map(|c| t_max.min(c.cutoff()));
         let mut mailboxes: [Mailbox; LANES] = core::array::from_fn(|_| Mailbox::new());
-        work.octree_cells += self.walk4(&packet, t_max, |l, indices| {
+        work.octree_cells += self.walk4(&packet, t_max, |entered, indices| {
             for &i in indices {
-                if mailboxes[l].first_visit(i) {
-                    tests += 1;
-                    if let Some(h) = test(l, i, closest[l].bound()) {
-                        closest[l].offer(i, h);
-                    }
+                let mut lanes = 0;
+                for l in lanes_of(entered) {
+                    lanes |= u32::from(mailboxes[l].first_visit(i)) << l;
+                }
+                if lanes != 0 {
+                    tests += u64::from(lanes.count_ones());
+                    test(lanes, i, &mut closest);
                 }
             }
-            closest[l].cutoff()
+            closest.each_ref().map(|c| c.cutoff())
         });
         work.intersection_tests += tests;
         closest.map(|c| c.best())
     }
 
-    /// Visits the non-empty leaves the packet's rays cross; `leaf(lane, indices)` is called for
-    /// each ray that enters the leaf, nearest leaves first for each ray, and returns that ray's
-    /// cut-off (cells it enters beyond it are skipped). Returns the cells entered, counted once
-    /// per ray that enters them.
+    /// Visits the non-empty leaves the packet's rays cross, nearest leaves first for each ray:
+    /// `leaf(lanes, indices)` gets the rays that enter the leaf (bit `l` for ray `l`) and returns
+    /// every ray's cut-off (cells a ray enters beyond its own are skipped). Returns the cells
+    /// entered, counted once per ray that enters them.
     fn walk4(
         &self,
         packet: &Packet,
         t_max: [f32; LANES],
-        leaf: impl FnMut(usize, &[u32]) -> f32,
+        leaf: impl FnMut(u32, &[u32]) -> [f32; LANES],
     ) -> u64 {
         struct Four<'a, 'b, F> {
             tree: &'a Octree,
@@ -171,7 +174,7 @@ impl Octree {
             t_max: [f32; LANES],
             leaf: F,
         }
-        impl<F: FnMut(usize, &[u32]) -> f32> SizedWalk for Four<'_, '_, F> {
+        impl<F: FnMut(u32, &[u32]) -> [f32; LANES]> SizedWalk for Four<'_, '_, F> {
             type Out = u64;
             #[inline(always)]
             fn run<const S: usize, const P: usize>(self) -> u64 {
@@ -196,7 +199,7 @@ impl Octree {
         &self,
         packet: &Packet,
         t_max: [f32; LANES],
-        mut leaf: impl FnMut(usize, &[u32]) -> f32,
+        mut leaf: impl FnMut(u32, &[u32]) -> [f32; LANES],
     ) -> u64 {
         let mut root = Entry4 {
             t0: Vec4::INFINITY,
@@ -236,9 +239,7 @@ impl Octree {
             if node.is_leaf() {
                 let start = node.first as usize;
                 let indices = &self.indices[start..start + node.count as usize];
-                for l in lanes_of(bits) {
-                    cutoff[l] = leaf(l, indices);
-                }
+                cutoff = leaf(bits, indices);
                 continue;
             }
             let cell = path.enter(e.depth, e.child, self.root);
