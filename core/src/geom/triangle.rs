@@ -122,7 +122,11 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
         e1 = (a2x * a0y - a2y * a0x) as f32;
         e2 = (a0x * a1y - a0y * a1x) as f32;
     }
-    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+    // Both signs: a miss. The comparisons are combined without branches (`|`, `&` on bools):
+    // whether a ray misses is hard to predict, so one branch costs less than a chain of them.
+    let negative = (e0 < 0.0) | (e1 < 0.0) | (e2 < 0.0);
+    let positive = (e0 > 0.0) | (e1 > 0.0) | (e2 > 0.0);
+    if negative & positive {
         return None;
     }
     let det = e0 + e1 + e2;
