@@ -382,13 +382,8 @@ mod tests {
     /// functions of zero, decided in `f64`).
     #[test]
     fn the_four_ray_filter_drops_only_misses() {
-        let mut state = 0x9e37_79b9u32;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1 << 24) as f32
-        };
+        let mut rng = crate::scene::mesh::Rng::new(0x9e37_79b9);
+        let mut unit = move || rng.next_f32();
         let (mut dropped, mut kept_hits, mut packets) = (0, 0, 0);
         for case in 0..40_000 {
             let mut v = || Vec3::new(unit(), unit(), unit()) * 4.0 - 2.0;

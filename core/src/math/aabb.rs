@@ -116,13 +116,8 @@ mod tests {
     /// random boxes and rays, rays aimed at corners and edges, and bounds that cut the box.
     #[test]
     fn lanes_agree_with_the_loop() {
-        let mut state = 0x2545_f491u32;
-        let mut unit = move || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 8) as f32 / (1 << 24) as f32
-        };
+        let mut rng = crate::scene::mesh::Rng::new(0x2545_f491);
+        let mut unit = move || rng.next_f32();
         let (mut hits, mut misses) = (0, 0);
         for case in 0..100_000 {
             let mut v = || Vec3::new(unit(), unit(), unit()) * 8.0 - 4.0;

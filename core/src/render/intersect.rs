@@ -237,13 +237,13 @@ impl Scene {
         }
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         let frames = rays.each_ref().map(QueryFrame::new);
-        let lanes = RayFrame4::new(&frames.each_ref().map(|f| f.triangles));
+        let frame4 = RayFrame4::new(&frames.each_ref().map(|f| f.triangles));
         let n = self.triangle_points.len() as u32;
         let hits = self
             .octree
-            .closest_hits4(rays, t_max, work, |lanes_in, i, closest| {
+            .closest_hits4(rays, t_max, work, |asked, i, closest| {
                 let Some(triangle) = self.triangle_points.get(i as usize) else {
-                    for l in lanes_of(lanes_in) {
+                    for l in lanes_of(asked) {
                         let (j, bound) = (i - n, closest[l].bound());
                         let hit = self.solids.first_hit_in_box(
                             j,
@@ -260,9 +260,9 @@ impl Scene {
                 };
                 // Four rays' edge functions at once, where they share an axis permutation: most
                 // tests end there.
-                let may_hit = lanes
+                let may_hit = frame4
                     .as_ref()
-                    .map_or(lanes_in, |f| may_hit4(f, triangle, lanes_in));
+                    .map_or(asked, |f| may_hit4(f, triangle, asked));
                 for l in lanes_of(may_hit) {
                     if let Some(h) = intersect(&frames[l].triangles, triangle, closest[l].bound()) {
                         closest[l].offer(i, PrimitiveHit::Triangle(i, h));

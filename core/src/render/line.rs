@@ -3,9 +3,10 @@
 //! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
 //! summed in sample order. With one sample per pixel, four neighbouring pixels' rays find their
-//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone. Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
-//! `render_line` traces only the pixel centres, and [`crate::render::adaptive::refine_line`] later
-//! supersamples the pixels that differ from a neighbour. Every decision depends on the scene and
+//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone. Adaptive
+//! multisampling ([`crate::render::adaptive`]) takes two passes: with it, `render_line` traces
+//! only the pixel centres, and [`crate::render::adaptive::refine_line`] later supersamples the
+//! pixels that differ from a neighbour. Every decision depends on the scene and
 //! the pixel alone, so any executor on any machine produces the same pixels.
 
 use crate::accel::octree::LANES;

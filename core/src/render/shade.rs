@@ -124,7 +124,7 @@ pub struct TraceScratch {
 impl TraceScratch {
     /// The closest hits of four primary rays, for [`trace_from`] (their work is counted with
     /// the next ray traced).
-    pub fn first_hits4(
+    pub(crate) fn first_hits4(
         &mut self,
         scene: &Scene,
         rays: &[Ray; LANES],
@@ -331,7 +331,7 @@ pub fn trace(
 
 /// [`trace`] for a primary ray whose closest hit is known (found by
 /// [`Scene::closest_hits4`] with its neighbours').
-pub fn trace_from(
+pub(crate) fn trace_from(
     scene: &Scene,
     (primary, first_hit): (Ray, Option<PrimitiveHit>),
     seed: u32,

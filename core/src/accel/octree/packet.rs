@@ -3,8 +3,10 @@
 //! Neighbouring camera rays cross mostly the same cells. [`Octree::closest_hits4`] walks four
 //! rays at once, one per lane of a [`Vec4`]: an interior cell computes the four rays'
 //! centre-plane crossings and their pieces in each child with a few vector operations
-//! ([`push_children4`]), where the one-ray walk does that work once per ray. A leaf's
-//! primitives are tested one ray at a time, by the caller's test, as in the one-ray walk.
+//! ([`push_children4`]), where the one-ray walk does that work once per ray. A leaf hands each
+//! primitive once to the caller's test with the rays that enter the leaf and have not tested
+//! it yet (each ray keeps its own mailbox); the test decides for each of them as the one-ray
+//! test does (the scene's test filters triangles four rays at a time, `may_hit4`).
 //!
 //! Each ray gets the one-ray walk's answer. Its pieces are the one-ray walk's to the bit: a
 //! crossing inside a ray's interval cuts it, widened by [`WIDEN`], and one outside decides the
@@ -20,7 +22,7 @@
 //! how many centre planes it has crossed, and these are popped in that order. Camera rays of
 //! neighbouring pixels almost always qualify; other packets are walked one ray at a time.
 
-use super::traverse::{push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
+use super::traverse::{next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
 use super::{Node, Octree};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{Closest, RayHit};
@@ -220,15 +222,7 @@ impl Octree {
         let mut top = 0usize;
         let mut cutoff = [f32::INFINITY; LANES];
         let mut cells = 0u64;
-        loop {
-            let e = match next.take() {
-                Some(e) => e,
-                None if top > 0 => {
-                    top -= 1;
-                    stack[top]
-                }
-                None => break,
-            };
+        while let Some(e) = next_cell(&mut next, &stack, &mut top) {
             let active = e.t0.cmple(e.t1) & e.t0.cmple(Vec4::from_array(cutoff));
             let bits = active.bitmask();
             if bits == 0 {
@@ -371,24 +365,9 @@ fn one_ray_pieces(
     (starts, ends): (&mut [Vec4; 8], &mut [Vec4; 8]),
 ) {
     for l in lanes_of(ties) {
-        let one = Entry {
-            node: e.node,
-            t0: e.t0[l],
-            t1: e.t1[l],
-            depth: e.depth,
-            child: e.child,
-        };
         // At most eight children, each pushed once.
         let mut pushed = [Entry::default(); 8];
-        let (n, nearest) = push_children(
-            &packet.rays[l],
-            packet.inv_dir[l],
-            &one,
-            node,
-            mid,
-            &mut pushed,
-            0,
-        );
+        let (n, nearest) = one_ray_children(packet, (e, l), node, mid, &mut pushed);
         for r in 0..8 {
             starts[r][l] = f32::INFINITY;
             ends[r][l] = f32::NEG_INFINITY;
@@ -401,32 +380,36 @@ fn one_ray_pieces(
     }
 }
 
+/// `push_children` for ray `l` of the packet, entered as lane `l` of `e`, onto `stack`.
+fn one_ray_children(
+    packet: &Packet,
+    (e, l): (&Entry4, usize),
+    node: Node,
+    mid: Vec3,
+    stack: &mut [Entry; 8],
+) -> (usize, Option<Entry>) {
+    let one = Entry {
+        node: e.node,
+        t0: e.t0[l],
+        t1: e.t1[l],
+        depth: e.depth,
+        child: e.child,
+    };
+    let (ray, inv_dir) = (&packet.rays[l], packet.inv_dir[l]);
+    push_children(ray, inv_dir, &one, node, mid, stack, 0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::octree::{xorshift, INTERIOR};
+    use crate::accel::octree::INTERIOR;
 
     /// Every child's piece of every ray, as `(child, t0 bits, t1 bits)`, sorted.
     type Pieces = alloc::vec::Vec<(u16, u32, u32)>;
 
     fn one_ray(packet: &Packet, e: &Entry4, node: Node, mid: Vec3, l: usize) -> Pieces {
-        let one = Entry {
-            node: e.node,
-            t0: e.t0[l],
-            t1: e.t1[l],
-            depth: e.depth,
-            child: e.child,
-        };
         let mut stack = [Entry::default(); 8];
-        let (n, nearest) = push_children(
-            &packet.rays[l],
-            packet.inv_dir[l],
-            &one,
-            node,
-            mid,
-            &mut stack,
-            0,
-        );
+        let (n, nearest) = one_ray_children(packet, (e, l), node, mid, &mut stack);
         let mut p: Pieces = stack[..n]
             .iter()
             .chain(nearest.as_ref())
@@ -453,8 +436,8 @@ mod tests {
     /// position and for rays through a cell's centre, edges and corners (crossings that tie).
     #[test]
     fn pieces_are_the_one_ray_walks() {
-        let mut next = xorshift(7);
-        let mut unit = move || (next() >> 8) as f32 / (1 << 24) as f32;
+        let mut rng = crate::scene::mesh::Rng::new(7);
+        let mut unit = move || rng.next_f32();
         let node = Node {
             first: 8,
             count: INTERIOR | 0xff,

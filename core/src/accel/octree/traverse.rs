@@ -433,15 +433,7 @@ impl Octree {
         });
         let mut top = 0usize;
         let mut cutoff = f32::INFINITY;
-        loop {
-            let e = match next.take() {
-                Some(e) => e,
-                None if top > 0 => {
-                    top -= 1;
-                    stack[top]
-                }
-                None => break,
-            };
+        while let Some(e) = next_cell(&mut next, &stack, &mut top) {
             if e.t0 > cutoff {
                 if cutoff == f32::NEG_INFINITY {
                     return cells;
@@ -460,6 +452,17 @@ impl Octree {
         }
         cells
     }
+}
+
+/// The cell to enter next: `next`, the nearest child of the cell entered last, if it was
+/// occupied, else the top of the stack; `None` when the walk is done.
+#[inline(always)]
+pub(super) fn next_cell<E: Copy>(next: &mut Option<E>, stack: &[E], top: &mut usize) -> Option<E> {
+    if let Some(e) = next.take() {
+        return Some(e);
+    }
+    *top = top.checked_sub(1)?;
+    Some(stack[*top])
 }
 
 /// Pushes the occupied children of interior node `node` (entered as `e`, its centre `mid`) that
