@@ -28,7 +28,7 @@
 use crate::accel::octree::LANES;
 use crate::geom::triangle::{hit_point, unit_normal};
 use crate::math::ray::{offset_ray_origin, Ray};
-use crate::render::intersect::{PrimitiveHit, QueryScratch};
+use crate::render::intersect::{PrimitiveHit, QueryScratch, SHADOW_CACHE};
 use crate::render::optics::{reflect, refract};
 use crate::render::sampling::{hemisphere, mix};
 use crate::render::stats::RayCounts;
@@ -117,8 +117,9 @@ struct Pending {
 pub struct TraceScratch {
     query: QueryScratch,
     pending: Vec<Pending>,
-    /// Per light, the primitive that blocked its last shadow ray (see [`Scene::shadowed`]).
-    blockers: Vec<Option<u32>>,
+    /// Per light, the primitives that blocked its latest shadow rays, the latest first (see
+    /// [`Scene::shadowed`]).
+    blockers: Vec<[Option<u32>; SHADOW_CACHE]>,
 }
 
 impl TraceScratch {
@@ -236,7 +237,7 @@ fn local_color(
     view: Vec3,
     seed: u32,
     spans: &mut QueryScratch,
-    blockers: &mut [Option<u32>],
+    blockers: &mut [[Option<u32>; SHADOW_CACHE]],
     counts: &mut RayCounts,
 ) -> Vec3 {
     let sh = &scene.shaders[s.shader];
@@ -348,7 +349,9 @@ pub(crate) fn trace_from(
         depth: 0,
         media: Media::OUTSIDE,
     });
-    scratch.blockers.resize(scene.lights.len(), None);
+    scratch
+        .blockers
+        .resize(scene.lights.len(), [None; SHADOW_CACHE]);
     let mut bounce = 0u32;
     while let Some(p) = scratch.pending.pop() {
         let spans = &mut scratch.query;

@@ -1,12 +1,12 @@
-//! The shadow cache (`Scene::shadowed`, the last blocker per light) gives `Scene::any_hit`'s
-//! answer whatever blocker it remembers, and remembers the primitive that blocked.
+//! The shadow cache (`Scene::shadowed`, the last blockers per light) gives `Scene::any_hit`'s
+//! answer whatever blockers it remembers, and remembers the primitive that blocked first.
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
-use strahl_core::render::intersect::QueryScratch;
+use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
@@ -50,8 +50,8 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
     let scene = scene(&mut rng);
     let primitives = (scene.triangle_points.len() + scene.solids.len()) as u32;
     let mut scratch = QueryScratch::default();
-    let mut last = None;
-    let (mut blocked, mut free, mut remembered_hits) = (0, 0, 0);
+    let mut last = [None; SHADOW_CACHE];
+    let (mut blocked, mut free, mut remembered_hits, mut second_hits) = (0, 0, 0, 0);
     for k in 0..20_000 {
         // Shadow rays (t from 0 to 1) between two points of the cloud, so that remembered
         // primitives lie before, on and beyond the light.
@@ -70,23 +70,31 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         // Every third ray starts from an unrelated remembered primitive, every 100th from an
         // index no primitive of this scene has (a scratch carried over from a larger scene).
         if k % 3 == 0 {
-            last = Some(rng.next_u64() as u32 % primitives);
+            last[k as usize % SHADOW_CACHE] = Some(rng.next_u64() as u32 % primitives);
         }
         if k % 100 == 1 {
-            last = Some(primitives + k);
+            last[0] = Some(primitives + k);
         }
         let before = last;
+        let cells = scratch.work.octree_cells;
         let got = scene.shadowed(&ray, 1.0, &mut scratch, (&mut last, None));
+        // No cell entered: settled before the walk (by a remembered blocker, where it is one).
+        let cached = scratch.work.octree_cells == cells;
         assert_eq!(got, want, "ray {k}: {ray:?}, remembered {before:?}");
         if want {
             blocked += 1;
-            let b = last.expect("a blocked ray leaves its blocker");
-            // What it remembers really blocks this ray.
+            let b = last[0].expect("a blocked ray leaves its blocker first");
+            // What it remembers first really blocks this ray.
+            let mut only = [None; SHADOW_CACHE];
+            only[0] = Some(b);
             assert!(
-                scene.shadowed(&ray, 1.0, &mut scratch, (&mut Some(b), None)),
+                scene.shadowed(&ray, 1.0, &mut scratch, (&mut only, None)),
                 "ray {k}: remembered {b} does not block"
             );
-            remembered_hits += u32::from(before == last);
+            if cached && before.contains(&Some(b)) {
+                remembered_hits += 1;
+                second_hits += u32::from(before[0] != Some(b));
+            }
         } else {
             free += 1;
             assert_eq!(
@@ -101,7 +109,7 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         "{blocked} blocked, {free} free"
     );
     assert!(
-        remembered_hits > 20,
-        "{remembered_hits} rays settled by the remembered blocker"
+        remembered_hits > 20 && second_hits > 5,
+        "{remembered_hits} rays settled by a remembered blocker, {second_hits} by a later one"
     );
 }
