@@ -27,7 +27,7 @@ pub(super) const WIDEN: f32 = 2.0 * gamma(3);
 
 /// The stack entries a walk of a tree `depth` deep needs: each level pushes at most eight cells
 /// (the four on the ray's path and, where crossings tie, the others around them) and pops one.
-pub(super) const fn stack_size(depth: u32) -> usize {
+const fn stack_size(depth: u32) -> usize {
     7 * depth as usize + 2
 }
 
