@@ -7,7 +7,8 @@
 //! `tests/tests/layers.rs`, fails when a module imports from a later layer):
 //! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
 //! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule.
-//! 3. [`accel`]: the arena octree over triangles and bounded solids.
+//! 3. [`accel`]: the arena octree over triangles and bounded solids, and per light the
+//!    primitives by direction that shadow rays test (light buffers).
 //! 4. [`scene`]: the scene model loaders fill in, render settings and their limits, cameras,
 //!    which effects can change a pixel, validation, the prepared [`scene::Scene`], and
 //!    procedural meshes for generated scenes and tests.

@@ -2,9 +2,12 @@
 //!
 //! - [`octree`]: an arena octree (flat node array, `u32` handles) over triangles and bounded
 //!   solids, with generic closest-hit and any-hit walks that take a per-primitive test.
+//! - [`light_buffer`]: per light, the primitives that may stand between it and a point, by
+//!   direction; shadow rays test those instead of walking the octree where it is short.
 //! - [`work`]: the counts of cells entered and primitives tested that the walks keep.
 //!
 //! The layer uses [`crate::math`] and [`crate::geom`].
 
+pub mod light_buffer;
 pub mod octree;
 pub mod work;

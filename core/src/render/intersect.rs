@@ -6,11 +6,15 @@
 //! neighbouring camera rays can find their closest hits together ([`Scene::closest_hits4`]),
 //! each the one it finds alone.
 //!
+//! Shadow rays towards a light with a light buffer test the primitives it lists for their
+//! direction instead of walking the octree ([`Scene::shadowed`]).
+//!
 //! Both queries follow the octree's rule for the closest hit: the smallest `t`, ties to the
 //! smallest primitive index (triangles first, then solids), so every machine picks the same one.
 //! Each query adds the cells it entered and the tests it made to its [`QueryScratch`]'s
 //! [`QueryWork`].
 
+use crate::accel::light_buffer::Candidates;
 use crate::accel::octree::{lanes_of, GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
@@ -23,6 +27,15 @@ use crate::scene::Scene;
 /// How many blockers each light remembers for [`Scene::shadowed`] (two: 0.94× on gears_4
 /// against one; four gave no more).
 pub const SHADOW_CACHE: usize = 2;
+
+/// What [`Scene::shadowed`] knows of a shadow ray besides the ray: the light it goes to (its
+/// index in [`Scene::lights`], for the light's [`LightBuffer`](crate::accel::light_buffer::LightBuffer);
+/// `None` walks the octree), the blockers the light remembers, and the triangle the ray leaves.
+pub type ShadowOf<'a> = (
+    Option<usize>,
+    &'a mut [Option<u32>; SHADOW_CACHE],
+    Option<u32>,
+);
 
 /// A hit of one primitive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -319,13 +332,18 @@ impl Scene {
             .is_some_and(|h| h.t() + h.t_error() < t_max)
     }
 
-    /// [`Scene::any_hit`] for a shadow ray, trying `last` first: the primitives that blocked the
+    /// [`Scene::any_hit`] for a shadow ray towards light `light` (see [`ShadowOf`]), trying
+    /// `last` first: the primitives that blocked the
     /// latest shadow rays towards the same light, the latest first (POV-Ray's light buffer
     /// keeps one). Neighbouring pixels are mostly shadowed by the same object, and where two
     /// objects' shadows meet or alternate by the other, so one or two tests often settle the
     /// query. The answer is `any_hit`'s whatever is remembered: `last` only decides what is
     /// tried first. A blocker found, remembered or by the walk, moves to the front of `last`;
     /// `last` is kept as it is when nothing blocks.
+    ///
+    /// Where the light has a [`LightBuffer`](crate::accel::light_buffer::LightBuffer) that
+    /// answers the ray, the primitives it lists are tested instead of walking the octree: the
+    /// same answer, since every primitive that can block the ray is listed.
     ///
     /// `leaving` is the triangle the ray leaves from, if any, with its origin moved off the
     /// triangle's plane (by at least the point's error bound) to the side the ray goes: the ray
@@ -337,7 +355,7 @@ impl Scene {
         ray: &Ray,
         t_max: f32,
         scratch: &mut QueryScratch,
-        (last, leaving): (&mut [Option<u32>; SHADOW_CACHE], Option<u32>),
+        (light, last, leaving): ShadowOf<'_>,
     ) -> bool {
         let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
@@ -361,11 +379,28 @@ impl Scene {
             spheres: None,
             leaving,
         };
-        let blocker = if self.group_spheres {
-            self.octree.any_hit_grouped(ray, t_max, work, &mut tests)
-        } else {
-            self.octree
-                .first_blocker_with(ray, t_max, work, |i| tests.blocks(i))
+        let listed = light
+            .and_then(|l| self.light_buffers.get(l)?.as_ref())
+            .map_or(Candidates::Walk, |b| b.candidates(ray, t_max));
+        let blocker = match listed {
+            Candidates::List { entries, depth } => {
+                work.octree_cells += 1;
+                entries
+                    .iter()
+                    .take_while(|e| e.near < depth)
+                    .map(|e| e.index)
+                    .filter(|&i| Some(i) != leaving)
+                    .find(|&i| {
+                        work.intersection_tests += 1;
+                        tests.blocks(i)
+                    })
+            }
+            Candidates::Walk if self.group_spheres => {
+                self.octree.any_hit_grouped(ray, t_max, work, &mut tests)
+            }
+            Candidates::Walk => self
+                .octree
+                .first_blocker_with(ray, t_max, work, |i| tests.blocks(i)),
         };
         let blocker = blocker.or_else(|| self.unbounded_blocker(work, &mut |i| tests.blocks(i)));
         if blocker.is_some() {

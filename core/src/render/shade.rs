@@ -247,7 +247,7 @@ fn local_color(
     if settings.ambient_occlusion > 0 && (occlusion_matters(settings, sh) || naive) {
         color *= ambient_visibility(scene, s, seed, spans, counts);
     }
-    for (light, last_blocker) in scene.lights.iter().zip(blockers.iter_mut()) {
+    for (index, (light, last_blocker)) in scene.lights.iter().zip(blockers.iter_mut()).enumerate() {
         let to_light = light.position - s.point;
         let dist = to_light.length();
         if dist == 0.0 {
@@ -273,7 +273,12 @@ fn local_color(
             let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
-            if scene.shadowed(&shadow, SHADOW_T_MAX, spans, (last_blocker, s.triangle)) {
+            if scene.shadowed(
+                &shadow,
+                SHADOW_T_MAX,
+                spans,
+                (Some(index), last_blocker, s.triangle),
+            ) {
                 continue;
             }
         }

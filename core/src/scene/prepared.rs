@@ -1,14 +1,16 @@
 //! [`Scene`], the prepared form of a [`SceneDesc`]: validated, with smooth vertex normals (the
 //! area-weighted average of the adjacent faces' normals, seed section 3.2.2.1), solids, the
-//! resolved occlusion distance, the derived effects and the octree. Renderers only ever see a
-//! [`Scene`].
+//! resolved occlusion distance, the derived effects, the octree and the lights' buffers.
+//! Renderers only ever see a [`Scene`].
 
 use super::camera::CameraFrame;
-use super::effects::Effects;
+use super::effects::{shadow_ray_matters, Effects};
 use super::error::SceneError;
 use super::model::{Light, SceneDesc, Shader};
 use super::settings::RenderSettings;
+use crate::accel::light_buffer::LightBuffer;
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
+use crate::geom::solid::extent::SolidExtent;
 use crate::geom::solid::prepared::Solids;
 use crate::geom::triangle::{area_normal, unit_normal};
 use crate::math::aabb::Aabb;
@@ -56,10 +58,19 @@ pub struct Scene {
     /// as many overlapping spheres do. Where leaves are small (2 to 5 on SPD's other scenes) a
     /// leaf seldom fills a group and the grouped walk cost 2 to 4 % more.
     pub group_spheres: bool,
+    /// Per light, the primitives by direction that its shadow rays test instead of walking the
+    /// octree (see [`LightBuffer`]); `None` for a light without shadow rays, in a scene of
+    /// fewer than [`LIGHT_BUFFER_MIN`] primitives, or where the buffer would be too large.
+    pub light_buffers: Vec<Option<LightBuffer>>,
 }
 
+/// Scenes with fewer primitives than this walk the octree for every shadow ray: the walk is
+/// short, and a buffer per light would only take memory (a board's, say).
+pub const LIGHT_BUFFER_MIN: usize = 64;
+
 impl Scene {
-    /// Validates `desc`, computes smooth vertex normals and builds the octree with `params`.
+    /// Validates `desc`, computes smooth vertex normals and builds the octree with `params` and
+    /// the lights' buffers.
     ///
     /// # Errors
     /// A [`SceneError`] for a missing shader or light, an index out of range, a non-finite number,
@@ -81,13 +92,16 @@ impl Scene {
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())
             .collect();
-        let octree = Octree::build_mixed(&triangle_points, &solids.extents(), params);
+        let extents = solids.extents();
+        let octree = Octree::build_mixed(&triangle_points, &extents, params);
         let bounds = octree.bounds();
         let stats = octree.stats();
         let occupied = stats.leaves - stats.empty_leaves;
         let group_spheres = solids.has_lone_spheres()
             && stats.references as usize >= GROUP * occupied.max(1) as usize;
+        let light_buffers = light_buffers(desc, &bounds, &triangle_points, &extents);
         Ok(Scene {
+            light_buffers,
             settings: desc.settings,
             shaders: desc.shaders.clone(),
             lights: desc.lights.clone(),
@@ -105,6 +119,27 @@ impl Scene {
             group_spheres,
         })
     }
+}
+
+/// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
+/// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
+/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more.
+fn light_buffers(
+    desc: &SceneDesc,
+    bounds: &Aabb,
+    triangles: &[[Vec3; 3]],
+    extents: &[SolidExtent],
+) -> Vec<Option<LightBuffer>> {
+    let boxes: Vec<Option<Aabb>> = extents.iter().map(SolidExtent::reach).collect();
+    let filed = triangles.len() + boxes.len() >= LIGHT_BUFFER_MIN;
+    desc.lights
+        .iter()
+        .map(|light| {
+            (filed && shadow_ray_matters(&desc.settings, light))
+                .then(|| LightBuffer::build(light.position, bounds, triangles, &boxes))
+                .flatten()
+        })
+        .collect()
 }
 
 /// The shading normal at each corner of each triangle, and how many triangles have no area.

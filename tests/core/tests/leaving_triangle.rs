@@ -99,7 +99,7 @@ fn shadowed_leaving_a_triangle_answers_as_any_hit() {
         // Remembering the triangle it leaves changes nothing either.
         let mut last = [None; SHADOW_CACHE];
         last[k as usize % SHADOW_CACHE] = Some(i).filter(|_| k % 3 != 0);
-        let got = scene.shadowed(&ray, 1.0, &mut scratch, (&mut last, Some(i)));
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, Some(i)));
         assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
         if want {
             blocked += 1;

@@ -77,7 +77,7 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         }
         let before = last;
         let cells = scratch.work.octree_cells;
-        let got = scene.shadowed(&ray, 1.0, &mut scratch, (&mut last, None));
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, None));
         // No cell entered: settled before the walk (by a remembered blocker, where it is one).
         let cached = scratch.work.octree_cells == cells;
         assert_eq!(got, want, "ray {k}: {ray:?}, remembered {before:?}");
@@ -88,7 +88,7 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
             let mut only = [None; SHADOW_CACHE];
             only[0] = Some(b);
             assert!(
-                scene.shadowed(&ray, 1.0, &mut scratch, (&mut only, None)),
+                scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut only, None)),
                 "ray {k}: remembered {b} does not block"
             );
             if cached && before.contains(&Some(b)) {

@@ -126,15 +126,15 @@ fn grouped_shadow_rays_are_blocked_as_one_by_one() {
         let ray = Ray::new(from, to - from);
         let expected = single.any_hit(&ray, 1.0, &mut scratch);
         let (mut last, mut last_single) = ([None; SHADOW_CACHE], [None; SHADOW_CACHE]);
-        let got = grouped.shadowed(&ray, 1.0, &mut scratch, (&mut last, None));
-        let one_by_one = single.shadowed(&ray, 1.0, &mut scratch, (&mut last_single, None));
+        let got = grouped.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, None));
+        let one_by_one = single.shadowed(&ray, 1.0, &mut scratch, (None, &mut last_single, None));
         assert_eq!(got, expected, "ray {i}: {ray:?}");
         assert_eq!(one_by_one, expected, "ray {i}: {ray:?}");
         // What the grouped query remembers really blocks the ray.
         if let Some(b) = last[0] {
             let mut only = [None; SHADOW_CACHE];
             only[0] = Some(b);
-            assert!(single.shadowed(&ray, 1.0, &mut scratch, (&mut only, None)));
+            assert!(single.shadowed(&ray, 1.0, &mut scratch, (None, &mut only, None)));
         }
         if expected {
             blocked += 1;

@@ -1,0 +1,164 @@
+//! Shadow rays answered from a light's buffer (`Scene::shadowed` with the light's index) give
+//! the octree walk's answer: on triangles, lone spheres, boxes and cones, a half-space, with
+//! lights outside, inside and on a triangle's corner, from points in space and on surfaces, and
+//! leaving the triangle a ray starts on.
+
+use glam::Vec3;
+use strahl_core::accel::light_buffer::Candidates;
+use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::ray::{offset_ray_origin, Ray};
+use strahl_core::math::transform::Transform;
+use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
+use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::{Light, Scene};
+use strahl_core_tests::meshes::random_soup;
+use strahl_core_tests::scenes::{add_triangles, lit};
+
+fn point(rng: &mut Rng, r: f32) -> Vec3 {
+    Vec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r))
+}
+
+/// A soup, spheres, boxes and cones, a floor half-space, and five lights: far, near, inside the
+/// cloud, on a triangle's corner, and one that casts no shadows.
+fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
+    let soup = random_soup(600, rng);
+    let mut desc = lit(Vec3::new(0.0, 30.0, 4.0));
+    add_triangles(&mut desc, &soup);
+    // A triangle with a corner on a light, outside the cloud.
+    let corner = Vec3::new(3.5, -1.0, 3.0);
+    add_triangles(&mut desc, &[[corner, corner + Vec3::X, corner + Vec3::Z]]);
+    for k in 0..120 {
+        let shape = match k % 3 {
+            0 => Shape::Sphere {
+                radius: rng.range(0.02, 0.3),
+            },
+            1 => Shape::Cuboid {
+                size: Vec3::splat(rng.range(0.05, 0.4)),
+            },
+            _ => Shape::Cylinder {
+                bottom_radius: rng.range(0.05, 0.3),
+                top_radius: 0.0,
+                height: rng.range(0.1, 0.6),
+            },
+        };
+        desc.objects.push(desc.solids.len() as u32);
+        desc.solids.push(SolidNode::Leaf {
+            shape,
+            transform: Transform::translate(point(rng, 2.0)),
+            shader: 0,
+        });
+    }
+    desc.objects.push(desc.solids.len() as u32);
+    desc.solids.push(SolidNode::Leaf {
+        shape: Shape::Plane {
+            normal: Vec3::Y,
+            d: -2.5,
+        },
+        transform: Transform::IDENTITY,
+        shader: 0,
+    });
+    let light = desc.lights[0];
+    for (position, casts_shadows) in [
+        (Vec3::new(3.0, 1.0, -2.5), true),
+        (Vec3::new(0.1, -0.2, 0.3), true),
+        (corner, true),
+        (Vec3::new(-4.0, 2.0, 1.0), false),
+    ] {
+        desc.lights.push(Light {
+            position,
+            casts_shadows,
+            ..light
+        });
+    }
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    (scene, soup)
+}
+
+#[test]
+fn shadowed_by_a_light_buffer_answers_as_the_walk() {
+    let mut rng = Rng::new(41);
+    let (scene, soup) = scene(&mut rng);
+    let lights = scene.lights.len();
+    // The lights outside the cloud have buffers (one on a triangle's corner); the one that casts no shadows has none (those
+    // inside it may have none: too crowded around them).
+    assert!([0, 1, 3].iter().all(|&l| scene.light_buffers[l].is_some()));
+    assert!(scene.light_buffers[4].is_none());
+    let mut scratch = QueryScratch::default();
+    let (mut listed, mut blocked, mut free) = (0, 0, 0);
+    let mut caches = vec![[None; SHADOW_CACHE]; lights];
+    for k in 0..40_000usize {
+        let l = k % lights;
+        let light = scene.lights[l].position;
+        // From points in space, and from points on the soup's triangles leaving them.
+        let (origin, leaving) = if k % 2 == 0 {
+            (point(&mut rng, 3.0), None)
+        } else {
+            let i = rng.next_u64() as usize % soup.len();
+            let t = soup[i];
+            let (a, b) = (rng.next_f32(), rng.next_f32());
+            let (a, b) = if a + b > 1.0 {
+                (1.0 - a, 1.0 - b)
+            } else {
+                (a, b)
+            };
+            let p = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+            let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+            if n == Vec3::ZERO {
+                continue;
+            }
+            let err = p.abs() * 1e-6;
+            (offset_ray_origin(p, err, n, light - p), Some(i as u32))
+        };
+        let ray = Ray::new(origin, light - origin);
+        let mut none = [None; SHADOW_CACHE];
+        let want = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut none, leaving));
+        if leaving.is_none() {
+            assert_eq!(want, scene.any_hit(&ray, 1.0, &mut scratch), "ray {k}");
+        }
+        // Fresh, and with what the light remembers from earlier rays.
+        let mut fresh = [None; SHADOW_CACHE];
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut fresh, leaving));
+        assert_eq!(
+            got, want,
+            "ray {k} to light {l}: {ray:?}, leaving {leaving:?}"
+        );
+        let remembered =
+            scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut caches[l], leaving));
+        assert_eq!(remembered, want, "ray {k} to light {l}, remembering");
+        let buffer = scene.light_buffers[l].as_ref();
+        if buffer.is_some_and(|b| b.candidates(&ray, 1.0) != Candidates::Walk) {
+            listed += 1;
+            blocked += usize::from(want);
+            free += usize::from(!want);
+        }
+    }
+    // Most rays are answered from the buffers, both ways.
+    assert!(listed > 20_000, "{listed} rays answered from a buffer");
+    assert!(
+        blocked > 2000 && free > 2000,
+        "{blocked} blocked, {free} free"
+    );
+}
+
+#[test]
+fn light_buffers_save_the_walk() {
+    let mut rng = Rng::new(43);
+    let (scene, _) = scene(&mut rng);
+    let light = scene.lights[0].position;
+    let (mut walked, mut listed) = (QueryScratch::default(), QueryScratch::default());
+    for _ in 0..5000 {
+        let origin = point(&mut rng, 2.5);
+        let ray = Ray::new(origin, light - origin);
+        let (mut a, mut b) = ([None; SHADOW_CACHE], [None; SHADOW_CACHE]);
+        scene.shadowed(&ray, 1.0, &mut walked, (None, &mut a, None));
+        scene.shadowed(&ray, 1.0, &mut listed, (Some(0), &mut b, None));
+    }
+    // A lookup counts as one cell: far fewer cells, and fewer tests, than the walk.
+    let (w, l) = (walked.work, listed.work);
+    assert!(l.octree_cells * 2 < w.octree_cells, "{l:?} against {w:?}");
+    assert!(
+        l.intersection_tests < w.intersection_tests,
+        "{l:?} against {w:?}"
+    );
+}
