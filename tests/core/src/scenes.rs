@@ -2,6 +2,8 @@
 //! test adds its triangles and solids.
 
 use glam::Vec3;
+use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::math::transform::Transform;
 use strahl_core::scene::{Light, SceneDesc, Shader, TriangleDesc};
 
 /// A scene of nothing yet: shader 0 is a grey Phong surface, and one light shines from `light`.
@@ -32,4 +34,14 @@ pub fn add_triangles(desc: &mut SceneDesc, tris: &[[Vec3; 3]]) {
         desc.triangles
             .push(TriangleDesc::new([first, first + 1, first + 2], 0));
     }
+}
+
+/// Adds a scene object made of one `shape` placed by `transform`, with shader 0.
+pub fn add_solid(desc: &mut SceneDesc, shape: Shape, transform: Transform) {
+    desc.objects.push(desc.solids.len() as u32);
+    desc.solids.push(SolidNode::Leaf {
+        shape,
+        transform,
+        shader: 0,
+    });
 }

@@ -6,14 +6,14 @@
 use glam::Vec3;
 use strahl_core::accel::light_buffer::Candidates;
 use strahl_core::accel::octree::OctreeParams;
-use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Light, Scene};
 use strahl_core_tests::meshes::random_soup;
-use strahl_core_tests::scenes::{add_triangles, lit};
+use strahl_core_tests::scenes::{add_solid, add_triangles, lit};
 
 fn point(rng: &mut Rng, r: f32) -> Vec3 {
     Vec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r))
@@ -42,22 +42,13 @@ fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
                 height: rng.range(0.1, 0.6),
             },
         };
-        desc.objects.push(desc.solids.len() as u32);
-        desc.solids.push(SolidNode::Leaf {
-            shape,
-            transform: Transform::translate(point(rng, 2.0)),
-            shader: 0,
-        });
+        add_solid(&mut desc, shape, Transform::translate(point(rng, 2.0)));
     }
-    desc.objects.push(desc.solids.len() as u32);
-    desc.solids.push(SolidNode::Leaf {
-        shape: Shape::Plane {
-            normal: Vec3::Y,
-            d: -2.5,
-        },
-        transform: Transform::IDENTITY,
-        shader: 0,
-    });
+    let floor = Shape::Plane {
+        normal: Vec3::Y,
+        d: -2.5,
+    };
+    add_solid(&mut desc, floor, Transform::IDENTITY);
     let light = desc.lights[0];
     for (position, casts_shadows) in [
         (Vec3::new(3.0, 1.0, -2.5), true),

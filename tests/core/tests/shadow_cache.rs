@@ -3,14 +3,14 @@
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
-use strahl_core::geom::solid::{Shape, SolidNode};
+use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
-use strahl_core_tests::scenes::{add_triangles, lit};
+use strahl_core_tests::scenes::{add_solid, add_triangles, lit};
 
 /// Balls, a triangle soup and a floor half-space: every kind of primitive `any_hit` walks.
 fn scene(rng: &mut Rng) -> Scene {
@@ -23,24 +23,19 @@ fn scene(rng: &mut Rng) -> Scene {
             rng.range(-2.0, 2.0),
             rng.range(-2.0, 2.0),
         );
-        desc.objects.push(desc.solids.len() as u32);
-        desc.solids.push(SolidNode::Leaf {
-            shape: Shape::Sphere {
+        add_solid(
+            &mut desc,
+            Shape::Sphere {
                 radius: rng.range(0.02, 0.3),
             },
-            transform: Transform::translate(centre),
-            shader: 0,
-        });
+            Transform::translate(centre),
+        );
     }
-    desc.objects.push(desc.solids.len() as u32);
-    desc.solids.push(SolidNode::Leaf {
-        shape: Shape::Plane {
-            normal: Vec3::Y,
-            d: -2.5,
-        },
-        transform: Transform::IDENTITY,
-        shader: 0,
-    });
+    let floor = Shape::Plane {
+        normal: Vec3::Y,
+        d: -2.5,
+    };
+    add_solid(&mut desc, floor, Transform::IDENTITY);
     Scene::build(&desc, &OctreeParams::default()).expect("valid scene")
 }
 
