@@ -1,7 +1,8 @@
 //! Shadow rays answered from a light's buffer (`Scene::shadowed` with the light's index) give
 //! the octree walk's answer: on triangles, lone spheres, boxes and cones, a half-space, with
 //! lights outside, inside and on a triangle's corner, from points in space and on surfaces, and
-//! leaving the triangle a ray starts on.
+//! leaving the triangle a ray starts on; and the same far from the origin, tiny and huge, with a
+//! light in a floor's plane, one far away and one inside a closed mesh.
 
 use glam::Vec3;
 use strahl_core::accel::light_buffer::Candidates;
@@ -10,9 +11,9 @@ use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
-use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::mesh::{MeshBuilder, Rng};
 use strahl_core::scene::{Light, Scene};
-use strahl_core_tests::meshes::random_soup;
+use strahl_core_tests::meshes::{positions, random_soup};
 use strahl_core_tests::scenes::{add_solid, add_triangles, lit};
 
 fn point(rng: &mut Rng, r: f32) -> Vec3 {
@@ -152,4 +153,82 @@ fn light_buffers_save_the_walk() {
         l.intersection_tests < w.intersection_tests,
         "{l:?} against {w:?}"
     );
+}
+
+/// The same soup moved and scaled: far from the origin, tiny, huge; with a floor whose plane
+/// holds a light, a light far away, and a light inside a closed sphere mesh.
+#[test]
+fn light_buffers_answer_as_the_walk_at_every_scale() {
+    let mut rng = Rng::new(47);
+    for (offset, scale) in [
+        (Vec3::ZERO, 1.0),
+        (Vec3::new(1e5, -3e4, 2e5), 1.0),
+        (Vec3::new(-2e3, 1e3, 5e2), 1e-3),
+        (Vec3::new(3.0, -1.0, 2.0), 1e4),
+    ] {
+        let place = |p: Vec3| offset + p * scale;
+        let mut soup: Vec<[Vec3; 3]> = random_soup(400, &mut rng)
+            .into_iter()
+            .map(|t| t.map(place))
+            .collect();
+        // A floor at y = -1.5 and a closed ball around (2, 0, 0).
+        let floor = [(-4.0, -4.0), (4.0, -4.0), (4.0, 4.0), (-4.0, 4.0)]
+            .map(|(x, z)| place(Vec3::new(x, -1.5, z)));
+        soup.push([floor[0], floor[1], floor[2]]);
+        soup.push([floor[0], floor[2], floor[3]]);
+        let mut ball = MeshBuilder::default();
+        let centre = place(Vec3::new(2.0, 0.0, 0.0));
+        ball.sphere(centre, 0.4 * scale, 12, 8, 0.0, 0, &mut rng);
+        soup.extend(positions(&ball));
+        let mut desc = lit(place(Vec3::new(0.5, 3.0, 1.0)));
+        add_triangles(&mut desc, &soup);
+        let light = desc.lights[0];
+        for position in [
+            place(Vec3::new(6.0, -1.5, 0.5)),
+            place(Vec3::new(-3e3, 5e3, 1e3)),
+            place(Vec3::new(2.0, 0.05, 0.0)),
+        ] {
+            desc.lights.push(Light { position, ..light });
+        }
+        let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+        assert!(
+            scene.light_buffers[0].is_some(),
+            "offset {offset}, scale {scale}"
+        );
+        let mut scratch = QueryScratch::default();
+        let mut listed = 0;
+        for k in 0..8000usize {
+            let l = k % scene.lights.len();
+            let target = scene.lights[l].position;
+            let t = soup[rng.next_u64() as usize % soup.len()];
+            let (a, b) = (rng.next_f32(), rng.next_f32());
+            let (a, b) = if a + b > 1.0 {
+                (1.0 - a, 1.0 - b)
+            } else {
+                (a, b)
+            };
+            let on = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+            let origin = if k % 3 == 0 {
+                place(point(&mut rng, 3.0))
+            } else {
+                on
+            };
+            let ray = Ray::new(origin, target - origin);
+            let mut none = [None; SHADOW_CACHE];
+            let want = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut none, None));
+            let mut fresh = [None; SHADOW_CACHE];
+            let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut fresh, None));
+            assert_eq!(
+                got, want,
+                "offset {offset}, scale {scale}, light {l}: {ray:?}"
+            );
+            let buffer = scene.light_buffers[l].as_ref();
+            listed +=
+                usize::from(buffer.is_some_and(|b| b.candidates(&ray, 1.0) != Candidates::Walk));
+        }
+        assert!(
+            listed > 2000,
+            "offset {offset}, scale {scale}: {listed} answered from a buffer"
+        );
+    }
 }
