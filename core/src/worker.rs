@@ -651,11 +651,13 @@ fn stage_answer(id: u32, stage: &Stage, again: bool) -> WorkerMessage<'static> {
 fn prepare(assembler: SceneAssembler, memory: u64) -> Result<Arc<Scene>, Refusal> {
     let bytes = assembler.finish().map_err(|_| Refusal::CorruptScene)?;
     let bundle = decode_bundle(&bytes).map_err(|_| Refusal::CorruptScene)?;
-    if memory_estimate(bytes.len() as u32, Some(&bundle.desc)) > memory {
+    let needed = memory_estimate(bytes.len() as u32, Some(&bundle.desc));
+    if needed > memory {
         return Err(Refusal::SceneTooLarge { limit: memory });
     }
     drop(bytes);
-    Scene::build(&bundle.desc, &bundle.octree)
+    // The lights' buffers only speed shadow rays up: they get what the scene leaves.
+    Scene::build_within(&bundle.desc, &bundle.octree, memory - needed)
         .map(Arc::new)
         .map_err(Refusal::BadScene)
 }

@@ -34,6 +34,7 @@ use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use alloc::vec;
 use alloc::vec::Vec;
+use core::mem::size_of;
 use glam::Vec3;
 
 /// A cell with more primitives than this sends its queries through the octree walk.
@@ -295,6 +296,24 @@ impl LightBuffer {
             return Candidates::Walk;
         }
         Candidates::List { entries, depth }
+    }
+
+    /// Bytes the buffer holds: its cells' starts and its entries.
+    pub fn bytes(&self) -> u64 {
+        (self.starts.len() * size_of::<u32>() + self.entries.len() * size_of::<Entry>()) as u64
+    }
+
+    /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
+    /// primitives, what it keeps included: every primitive's footprints on all six faces (in
+    /// vectors of at most twice their length, or 4), the cells (at most [`CELLS_PER_PRIMITIVE`] per
+    /// footprint plus the rounding up of [`MAX_SIDE`]-bounded sides on each face) counted,
+    /// started and filled in three `u32` arrays, and the kept entries within their budget.
+    pub fn peak_bytes(primitives: usize) -> u64 {
+        let n = primitives as u64;
+        let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
+        let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * n + 2 * u64::from(MAX_SIDE) + 1) + 1;
+        let kept = KEPT as u64 * n + cells;
+        footprints + 3 * cells * size_of::<u32>() as u64 + kept * size_of::<Entry>() as u64
     }
 
     /// The light's position.

@@ -76,6 +76,20 @@ impl Scene {
     /// A [`SceneError`] for a missing shader or light, an index out of range, a non-finite number,
     /// a bad image size, or more elements than `u32` indices address.
     pub fn build(desc: &SceneDesc, params: &OctreeParams) -> Result<Scene, SceneError> {
+        Scene::build_within(desc, params, u64::MAX)
+    }
+
+    /// [`Scene::build`], giving the lights' buffers at most `buffer_memory` bytes: a light gets
+    /// its buffer only while [`LightBuffer::peak_bytes`] fits in what the earlier lights' buffers
+    /// left (a board's heap, say; its shadow rays then walk the octree, to the same answers).
+    ///
+    /// # Errors
+    /// As [`Scene::build`].
+    pub fn build_within(
+        desc: &SceneDesc,
+        params: &OctreeParams,
+        buffer_memory: u64,
+    ) -> Result<Scene, SceneError> {
         desc.validate()?;
         let triangle_points: Vec<[Vec3; 3]> = desc
             .triangles
@@ -99,7 +113,12 @@ impl Scene {
         let occupied = stats.leaves - stats.empty_leaves;
         let group_spheres = solids.has_lone_spheres()
             && stats.references as usize >= GROUP * occupied.max(1) as usize;
-        let light_buffers = light_buffers(desc, &bounds, &triangle_points, &extents);
+        let filed = Filed {
+            bounds,
+            triangles: &triangle_points,
+            extents: &extents,
+        };
+        let light_buffers = light_buffers(desc, &filed, buffer_memory);
         Ok(Scene {
             light_buffers,
             settings: desc.settings,
@@ -121,23 +140,41 @@ impl Scene {
     }
 }
 
+/// The most memory one light's buffer may take while it is built, what it keeps included, in a
+/// scene of `triangles` triangles and `objects` solid objects: [`LightBuffer::peak_bytes`] and
+/// the solids' boxes. [`Scene::build_within`] builds a light's buffer only where this fits.
+pub fn light_buffer_peak(triangles: usize, objects: usize) -> u64 {
+    let boxes = objects * core::mem::size_of::<Option<Aabb>>();
+    LightBuffer::peak_bytes(triangles + objects) + boxes as u64
+}
+
+/// What the lights' buffers file: the triangles and the solids' extents, within `bounds`.
+struct Filed<'a> {
+    bounds: Aabb,
+    triangles: &'a [[Vec3; 3]],
+    extents: &'a [SolidExtent],
+}
+
 /// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
 /// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
-/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more.
-fn light_buffers(
-    desc: &SceneDesc,
-    bounds: &Aabb,
-    triangles: &[[Vec3; 3]],
-    extents: &[SolidExtent],
-) -> Vec<Option<LightBuffer>> {
-    let boxes: Vec<Option<Aabb>> = extents.iter().map(SolidExtent::reach).collect();
-    let filed = triangles.len() + boxes.len() >= LIGHT_BUFFER_MIN;
+/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more, while the
+/// build's [`LightBuffer::peak_bytes`] fits in what is left of `memory`.
+fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option<LightBuffer>> {
+    let primitives = filed.triangles.len() + filed.extents.len();
+    let peak = light_buffer_peak(filed.triangles.len(), filed.extents.len());
+    if primitives < LIGHT_BUFFER_MIN || peak > memory {
+        return desc.lights.iter().map(|_| None).collect();
+    }
+    let boxes: Vec<Option<Aabb>> = filed.extents.iter().map(SolidExtent::reach).collect();
     desc.lights
         .iter()
         .map(|light| {
-            (filed && shadow_ray_matters(&desc.settings, light))
-                .then(|| LightBuffer::build(light.position, bounds, triangles, &boxes))
-                .flatten()
+            let wanted = shadow_ray_matters(&desc.settings, light) && peak <= memory;
+            let buffer = wanted
+                .then(|| LightBuffer::build(light.position, &filed.bounds, filed.triangles, &boxes))
+                .flatten();
+            memory = memory.saturating_sub(buffer.as_ref().map_or(0, LightBuffer::bytes));
+            buffer
         })
         .collect()
 }

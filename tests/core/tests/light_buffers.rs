@@ -12,7 +12,8 @@ use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
 use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
 use strahl_core::scene::mesh::{MeshBuilder, Rng};
-use strahl_core::scene::{Light, Scene};
+use strahl_core::scene::prepared::light_buffer_peak;
+use strahl_core::scene::{Light, Scene, SceneDesc};
 use strahl_core_tests::meshes::{positions, random_soup};
 use strahl_core_tests::scenes::{add_solid, add_triangles, lit};
 
@@ -22,7 +23,7 @@ fn point(rng: &mut Rng, r: f32) -> Vec3 {
 
 /// A soup, spheres, boxes and cones, a floor half-space, and five lights: far, near, inside the
 /// cloud, on a triangle's corner, and one that casts no shadows.
-fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
+fn desc(rng: &mut Rng) -> (SceneDesc, Vec<[Vec3; 3]>) {
     let soup = random_soup(600, rng);
     let mut desc = lit(Vec3::new(0.0, 30.0, 4.0));
     add_triangles(&mut desc, &soup);
@@ -63,6 +64,11 @@ fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
             ..light
         });
     }
+    (desc, soup)
+}
+
+fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
+    let (desc, soup) = desc(rng);
     let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
     (scene, soup)
 }
@@ -231,4 +237,38 @@ fn light_buffers_answer_as_the_walk_at_every_scale() {
             "offset {offset}, scale {scale}: {listed} answered from a buffer"
         );
     }
+}
+
+/// A node with little memory (a board's heap) builds buffers only where the most their build
+/// can take fits in what the scene leaves, one light after the other.
+#[test]
+fn light_buffers_stay_within_the_memory_given() {
+    let (desc, _) = desc(&mut Rng::new(53));
+    let params = OctreeParams::default();
+    let built = |memory| {
+        let scene = Scene::build_within(&desc, &params, memory).expect("valid scene");
+        scene
+            .light_buffers
+            .iter()
+            .map(Option::is_some)
+            .collect::<Vec<_>>()
+    };
+    let all = built(u64::MAX);
+    assert_eq!(
+        all,
+        [true, true, false, true, false],
+        "light 2 is crowded, light 4 casts none"
+    );
+    let peak = light_buffer_peak(desc.triangles.len(), desc.objects.len());
+    assert_eq!(built(0), [false; 5]);
+    assert_eq!(built(peak - 1), [false; 5]);
+    // Enough for one: the first light's buffer leaves less than the next one may need.
+    assert_eq!(built(peak), [true, false, false, false, false]);
+    let scene = Scene::build(&desc, &params).expect("valid scene");
+    let first = scene.light_buffers[0].as_ref().expect("a buffer").bytes();
+    assert!(
+        first < peak,
+        "{first} bytes kept, {peak} at most while building"
+    );
+    assert_eq!(built(peak + first), [true, true, false, false, false]);
 }
