@@ -60,7 +60,8 @@ pub struct Scene {
     pub group_spheres: bool,
     /// Per light, the primitives by direction that its shadow rays test instead of walking the
     /// octree (see [`LightBuffer`]); `None` for a light without shadow rays, in a scene of
-    /// fewer than [`LIGHT_BUFFER_MIN`] primitives, or where the buffer would be too large.
+    /// fewer than [`LIGHT_BUFFER_MIN`] primitives, where the memory given does not allow it
+    /// ([`Scene::build_within`]), or where the buffer would not pay.
     pub light_buffers: Vec<Option<LightBuffer>>,
 }
 
@@ -80,7 +81,7 @@ impl Scene {
     }
 
     /// [`Scene::build`], giving the lights' buffers at most `buffer_memory` bytes: a light gets
-    /// its buffer only while [`LightBuffer::peak_bytes`] fits in what the earlier lights' buffers
+    /// its buffer only while [`light_buffer_peak`] fits in what the earlier lights' buffers
     /// left (a board's heap, say; its shadow rays then walk the octree, to the same answers).
     ///
     /// # Errors
@@ -157,8 +158,8 @@ struct Filed<'a> {
 
 /// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
 /// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
-/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more, while the
-/// build's [`LightBuffer::peak_bytes`] fits in what is left of `memory`.
+/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more, while
+/// [`light_buffer_peak`] fits in what is left of `memory`.
 fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option<LightBuffer>> {
     let primitives = filed.triangles.len() + filed.extents.len();
     let peak = light_buffer_peak(filed.triangles.len(), filed.extents.len());
