@@ -1,6 +1,8 @@
 //! Four neighbouring camera rays find their first hits together (`Scene::closest_hits4`, which
-//! `render_line` uses for one sample per pixel): each ray's hit is the one it finds alone, and
-//! the pixels are those of tracing each pixel's ray alone, on scenes of every kind of primitive.
+//! `render_line` uses for one sample per pixel), and so do the four pixels' next rays (mirror and
+//! refracted rays) while each has one: each ray's hit is the one it finds alone, and the pixels
+//! are those of tracing each pixel's ray alone, on scenes of every kind of primitive, mirrors
+//! and glass included.
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -3,7 +3,8 @@
 //! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
 //! summed in sample order. With one sample per pixel, four neighbouring pixels' rays find their
-//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone. Adaptive
+//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone, and so do their
+//! next rays while each of the four pixels has one (`trace_from4`). Adaptive
 //! multisampling ([`crate::render::adaptive`]) takes two passes: with it, `render_line` traces
 //! only the pixel centres, and [`crate::render::adaptive::refine_line`] later supersamples the
 //! pixels that differ from a neighbour. Every decision depends on the scene and
@@ -14,7 +15,7 @@ use crate::math::ray::Ray;
 use crate::render::error::RenderError;
 use crate::render::pixel::Pixel;
 use crate::render::sampling::{mix, pixel_sample, pixel_seed};
-use crate::render::shade::{trace, trace_from, TraceScratch};
+use crate::render::shade::{trace, trace_from4, TraceScratch};
 use crate::render::stats::RayCounts;
 use crate::scene::effects::is_adaptive;
 use crate::scene::Scene;
@@ -83,8 +84,15 @@ fn single_samples(
     let samples: [(Ray, u32); LANES] = core::array::from_fn(|l| sample(scene, x + l as u32, y, 0));
     let rays = samples.map(|(ray, _)| ray);
     let hits = scratch.first_hits4(scene, &rays);
-    for (l, px) in four.iter_mut().enumerate() {
-        let color = trace_from(scene, (rays[l], hits[l]), samples[l].1, scratch, counts);
+    let primaries = core::array::from_fn(|l| (rays[l], hits[l]));
+    let colors = trace_from4(
+        scene,
+        primaries,
+        samples.map(|(_, seed)| seed),
+        scratch,
+        counts,
+    );
+    for (px, color) in four.iter_mut().zip(colors) {
         *px = Pixel::from_color(color);
     }
 }

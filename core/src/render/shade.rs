@@ -24,6 +24,10 @@
 //! Branches are kept on an explicit stack and taken in a fixed order, so the floating-point sum of
 //! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
 //! nested transparent objects), so leaving an inner object returns to the outer one's index.
+//! A sample's stack and colour so far are a `RayTree`, which takes each ray's closest hit from
+//! its caller: [`trace_from4`] follows four neighbouring pixels' trees side by side and lets
+//! their next rays (mirror and refracted rays) find their hits together while all four have
+//! one. Each tree's rays, hits and sums are the ones it has traced alone.
 
 use crate::accel::octree::LANES;
 use crate::geom::triangle::{hit_point, unit_normal};
@@ -117,14 +121,22 @@ struct Pending {
 pub struct TraceScratch {
     query: QueryScratch,
     pending: Vec<Pending>,
+    /// The pending rays of four pixels traced together ([`trace_from4`]).
+    packet: [Vec<Pending>; LANES],
     /// Per light, the primitives that blocked its latest shadow rays, the latest first (see
     /// [`Scene::shadowed`]).
     blockers: Vec<[Option<u32>; SHADOW_CACHE]>,
 }
 
 impl TraceScratch {
-    /// The closest hits of four primary rays, for [`trace_from`] (their work is counted with
-    /// the next ray traced).
+    /// Makes room for a remembered blocker per light of `scene`.
+    fn prepare(&mut self, scene: &Scene) {
+        self.blockers
+            .resize(scene.lights.len(), [None; SHADOW_CACHE]);
+    }
+
+    /// The closest hits of four primary rays, for [`trace_from4`] (their work is counted with
+    /// the four pixels' other rays).
     pub(crate) fn first_hits4(
         &mut self,
         scene: &Scene,
@@ -331,43 +343,111 @@ pub fn trace(
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let hit = scene.closest_hit(&primary, f32::INFINITY, &mut scratch.query);
-    trace_from(scene, (primary, hit), seed, scratch, counts)
+    let mut tree = RayTree::start(primary, seed, core::mem::take(&mut scratch.pending));
+    scratch.prepare(scene);
+    let color = tree.finish(scene, scratch, counts);
+    scratch.pending = tree.pending;
+    counts.work += core::mem::take(&mut scratch.query.work);
+    color
 }
 
-/// [`trace`] for a primary ray whose closest hit is known (found by
-/// [`Scene::closest_hits4`] with its neighbours').
-pub(crate) fn trace_from(
+/// [`trace`] for four neighbouring pixels' primary rays whose closest hits are known (found by
+/// [`Scene::closest_hits4`]), each the colour it gives alone.
+/// After the first hits, where each of the four ray trees has a ray to follow next (a mirror
+/// ray, mostly), those four rays find their closest hits together ([`Scene::closest_hits4`]).
+pub(crate) fn trace_from4(
     scene: &Scene,
-    (primary, first_hit): (Ray, Option<PrimitiveHit>),
-    seed: u32,
+    primaries: [(Ray, Option<PrimitiveHit>); LANES],
+    seeds: [u32; LANES],
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
-) -> Vec3 {
-    let settings = &scene.settings;
-    let mut first_hit = Some(first_hit);
-    let mut color = Vec3::ZERO;
-    scratch.pending.clear();
-    scratch.pending.push(Pending {
-        ray: primary,
-        weight: 1.0,
-        depth: 0,
-        media: Media::OUTSIDE,
+) -> [Vec3; LANES] {
+    scratch.prepare(scene);
+    let mut trees: [RayTree; LANES] = core::array::from_fn(|l| {
+        let pending = core::mem::take(&mut scratch.packet[l]);
+        RayTree::start(primaries[l].0, seeds[l], pending)
     });
-    scratch
-        .blockers
-        .resize(scene.lights.len(), [None; SHADOW_CACHE]);
-    let mut bounce = 0u32;
-    while let Some(p) = scratch.pending.pop() {
-        let spans = &mut scratch.query;
-        let hit = match first_hit.take() {
-            Some(hit) => hit,
-            None => scene.closest_hit(&p.ray, f32::INFINITY, spans),
-        };
+    for (tree, (_, hit)) in trees.iter_mut().zip(primaries) {
+        tree.follow(scene, hit, scratch, counts);
+    }
+    while let [Some(a), Some(b), Some(c), Some(d)] = trees.each_ref().map(RayTree::next_ray) {
+        let hits = scene.closest_hits4(&[a, b, c, d], f32::INFINITY, &mut scratch.query);
+        for (tree, hit) in trees.iter_mut().zip(hits) {
+            tree.follow(scene, hit, scratch, counts);
+        }
+    }
+    let colors = core::array::from_fn(|l| trees[l].finish(scene, scratch, counts));
+    for (buffer, tree) in scratch.packet.iter_mut().zip(trees) {
+        *buffer = tree.pending;
+    }
+    counts.work += core::mem::take(&mut scratch.query.work);
+    colors
+}
+
+/// One sample's rays in progress: the colour gathered so far and the rays still to follow, the
+/// next last. Each ray followed adds its local colour and pushes the rays it spawns, so a tree's
+/// colour is summed in the same order however its hits were found.
+struct RayTree {
+    color: Vec3,
+    pending: Vec<Pending>,
+    /// Surfaces shaded so far (each one's occlusion pattern is `mix(seed, bounce)`).
+    bounce: u32,
+    seed: u32,
+}
+
+impl RayTree {
+    /// The tree of `primary`, in the (cleared) buffer `pending`.
+    fn start(primary: Ray, seed: u32, mut pending: Vec<Pending>) -> RayTree {
+        pending.clear();
+        pending.push(Pending {
+            ray: primary,
+            weight: 1.0,
+            depth: 0,
+            media: Media::OUTSIDE,
+        });
+        RayTree {
+            color: Vec3::ZERO,
+            pending,
+            bounce: 0,
+            seed,
+        }
+    }
+
+    /// The ray to follow next, if any.
+    fn next_ray(&self) -> Option<Ray> {
+        self.pending.last().map(|p| p.ray)
+    }
+
+    /// Follows every ray left, finding each one's closest hit alone; returns the colour.
+    fn finish(
+        &mut self,
+        scene: &Scene,
+        scratch: &mut TraceScratch,
+        counts: &mut RayCounts,
+    ) -> Vec3 {
+        while let Some(ray) = self.next_ray() {
+            let hit = scene.closest_hit(&ray, f32::INFINITY, &mut scratch.query);
+            self.follow(scene, hit, scratch, counts);
+        }
+        self.color
+    }
+
+    /// Follows the next ray, whose closest hit is `hit`: the background where it hits nothing,
+    /// else the surface's local colour and the rays it spawns.
+    fn follow(
+        &mut self,
+        scene: &Scene,
+        hit: Option<PrimitiveHit>,
+        scratch: &mut TraceScratch,
+        counts: &mut RayCounts,
+    ) {
+        let settings = &scene.settings;
+        let Some(p) = self.pending.pop() else { return };
         let Some(hit) = hit else {
-            color += settings.background * p.weight;
-            continue;
+            self.color += settings.background * p.weight;
+            return;
         };
+        let spans = &mut scratch.query;
         let s = surface(scene, &p.ray, &hit);
         let view = -p.ray.dir.normalize();
         let d = -view;
@@ -375,19 +455,18 @@ pub(crate) fn trace_from(
         let naive = !settings.skip_effects;
         if split.local_share > 0.0 || naive {
             let blockers = &mut scratch.blockers;
-            let local = local_color(scene, &s, view, mix(seed, bounce), spans, blockers, counts);
+            let seed = mix(self.seed, self.bounce);
+            let local = local_color(scene, &s, view, seed, spans, blockers, counts);
             if split.local_share > 0.0 {
-                color += local * (split.local_share * p.weight);
+                self.color += local * (split.local_share * p.weight);
             }
         }
-        bounce += 1;
+        self.bounce += 1;
         if naive {
             trace_dropped_branches(scene, &s, d, &p, &split, spans, counts);
         }
-        push_branches(&s, d, &p, split, &mut scratch.pending, counts);
+        push_branches(&s, d, &p, split, &mut self.pending, counts);
     }
-    counts.work += core::mem::take(&mut scratch.query.work);
-    color
 }
 
 /// The shares of a hit: the mirror ray, unless its share cannot matter; the refracted ray
