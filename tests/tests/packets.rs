@@ -143,3 +143,42 @@ fn the_fart_scenes_and_the_room() {
         "room: only {together} packets walked together"
     );
 }
+
+/// With `m × m` samples per pixel, four samples of a pixel are traced together: every pixel of
+/// `render_line` is the mean of its samples traced alone, added in sample order.
+#[test]
+fn samples_of_a_pixel_traced_four_at_a_time() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("kinds.nff");
+    std::fs::write(&path, nff_scene(3)).expect("write scene");
+    let mut scratch = TraceScratch::default();
+    let mut counts = RayCounts::default();
+    // 2 × 2 samples: one packet; 3 × 3: two packets and one sample alone.
+    for m in [2u32, 3] {
+        let loaded = load_scene(
+            &path,
+            &Overrides {
+                samples: Some(m),
+                ..overrides(20, 16)
+            },
+        )
+        .expect("scene loads");
+        let scene = build(&loaded.desc);
+        let (w, h) = (scene.settings.width, scene.settings.height);
+        let mut line = vec![Pixel::default(); w as usize];
+        for y in 0..h {
+            render_line(&scene, y, &mut line).expect("line renders");
+            for x in 0..w {
+                let seed = pixel_seed(x, y);
+                let mut sum = glam::Vec3::ZERO;
+                for k in 0..m * m {
+                    let (dx, dy) = pixel_sample(seed, k, m);
+                    let ray = scene.camera.ray(x as f32 + dx, y as f32 + dy);
+                    sum += trace(&scene, ray, mix(seed, k), &mut scratch, &mut counts);
+                }
+                let alone = Pixel::from_color(sum / (m * m) as f32);
+                assert_eq!(line[x as usize], alone, "m {m}, line {y}, pixel {x}");
+            }
+        }
+    }
+}

@@ -2,9 +2,10 @@
 //!
 //! A pixel is one ray through its centre, or with `samples = m > 1` the mean of `m × m` rays on
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
-//! summed in sample order. With one sample per pixel, four neighbouring pixels' rays find their
-//! first hits together ([`Scene::closest_hits4`]), to the hits each finds alone, and so do their
-//! next rays while each of the four pixels has one (`trace_from4`). Adaptive
+//! summed in sample order. Rays are traced four at a time, to the hits each finds alone: four
+//! neighbouring pixels' with one sample per pixel, four samples of a pixel with more. Their first
+//! hits are found together ([`Scene::closest_hits4`]), and so are their next rays while each of
+//! the four has one (`trace_from4`). Adaptive
 //! multisampling ([`crate::render::adaptive`]) takes two passes: with it, `render_line` traces
 //! only the pixel centres, and [`crate::render::adaptive::refine_line`] later supersamples the
 //! pixels that differ from a neighbour. Every decision depends on the scene and
@@ -66,8 +67,8 @@ pub fn render_line(scene: &Scene, y: u32, out: &mut [Pixel]) -> Result<RayCounts
 }
 
 /// The pixels from `(x, y)` rightwards, one sample each: [`supersample`]'s colours. Four
-/// neighbours' rays find their first hits together ([`TraceScratch::first_hits4`]); a line's last
-/// pixels, fewer than four, go one at a time.
+/// neighbours' rays are traced together ([`trace4`]); a line's last pixels, fewer than four, go
+/// one at a time.
 fn single_samples(
     scene: &Scene,
     (x, y): (u32, u32),
@@ -82,19 +83,31 @@ fn single_samples(
         return;
     };
     let samples: [(Ray, u32); LANES] = core::array::from_fn(|l| sample(scene, x + l as u32, y, 0));
+    let colors = trace4(scene, samples, scratch, counts);
+    for (px, color) in four.iter_mut().zip(colors) {
+        *px = Pixel::from_color(color);
+    }
+}
+
+/// The colours of four samples (ray and occlusion seed), each [`trace`]'s: their rays find
+/// their first hits together ([`TraceScratch::first_hits4`]), and so do their next rays while
+/// each has one ([`trace_from4`]).
+fn trace4(
+    scene: &Scene,
+    samples: [(Ray, u32); LANES],
+    scratch: &mut TraceScratch,
+    counts: &mut RayCounts,
+) -> [Vec3; LANES] {
     let rays = samples.map(|(ray, _)| ray);
     let hits = scratch.first_hits4(scene, &rays);
     let primaries = core::array::from_fn(|l| (rays[l], hits[l]));
-    let colors = trace_from4(
+    trace_from4(
         scene,
         primaries,
         samples.map(|(_, seed)| seed),
         scratch,
         counts,
-    );
-    for (px, color) in four.iter_mut().zip(colors) {
-        *px = Pixel::from_color(color);
-    }
+    )
 }
 
 /// Sample `k` of pixel `(x, y)` on the scene's `m × m` pattern: its ray, and the seed of its
@@ -107,8 +120,9 @@ fn sample(scene: &Scene, x: u32, y: u32, k: u32) -> (Ray, u32) {
     (ray, mix(seed, k))
 }
 
-/// The mean of the `m × m` samples of pixel `(x, y)` (just the centre sample for `m = 1`). Counts
-/// nothing but the rays the samples spawn.
+/// The mean of the `m × m` samples of pixel `(x, y)` (just the centre sample for `m = 1`), summed
+/// in sample order; four at a time, their rays walk together ([`trace4`]). Counts nothing but
+/// the rays the samples spawn.
 pub(crate) fn supersample(
     scene: &Scene,
     x: u32,
@@ -119,7 +133,18 @@ pub(crate) fn supersample(
     let m = scene.settings.samples.max(1);
     let n = m * m;
     let mut sum = Vec3::ZERO;
-    for k in 0..n {
+    // Four samples at a time where four are left: their rays walk together, and their colours
+    // are added in sample order, as one at a time.
+    let mut k = 0;
+    while k + LANES as u32 <= n {
+        let samples: [(Ray, u32); LANES] =
+            core::array::from_fn(|l| sample(scene, x, y, k + l as u32));
+        for color in trace4(scene, samples, scratch, counts) {
+            sum += color;
+        }
+        k += LANES as u32;
+    }
+    for k in k..n {
         let (ray, seed) = sample(scene, x, y, k);
         sum += trace(scene, ray, seed, scratch, counts);
     }
