@@ -5,7 +5,7 @@
 //! summed in sample order. Rays are traced four at a time, to the hits each finds alone: four
 //! neighbouring pixels' with one sample per pixel, four samples of a pixel with more. Their first
 //! hits are found together ([`Scene::closest_hits4`]), and so are their next rays while each of
-//! the four has one (`trace_from4`). Adaptive
+//! the four has one (`trace4`). Adaptive
 //! multisampling ([`crate::render::adaptive`]) takes two passes: with it, `render_line` traces
 //! only the pixel centres, and [`crate::render::adaptive::refine_line`] later supersamples the
 //! pixels that differ from a neighbour. Every decision depends on the scene and
@@ -16,7 +16,7 @@ use crate::math::ray::Ray;
 use crate::render::error::RenderError;
 use crate::render::pixel::Pixel;
 use crate::render::sampling::{mix, pixel_sample, pixel_seed};
-use crate::render::shade::{trace, trace_from4, TraceScratch};
+use crate::render::shade::{trace, trace4, TraceScratch};
 use crate::render::stats::RayCounts;
 use crate::scene::effects::is_adaptive;
 use crate::scene::Scene;
@@ -87,27 +87,6 @@ fn single_samples(
     for (px, color) in four.iter_mut().zip(colors) {
         *px = Pixel::from_color(color);
     }
-}
-
-/// The colours of four samples (ray and occlusion seed), each [`trace`]'s: their rays find
-/// their first hits together ([`TraceScratch::first_hits4`]), and so do their next rays while
-/// each has one ([`trace_from4`]).
-fn trace4(
-    scene: &Scene,
-    samples: [(Ray, u32); LANES],
-    scratch: &mut TraceScratch,
-    counts: &mut RayCounts,
-) -> [Vec3; LANES] {
-    let rays = samples.map(|(ray, _)| ray);
-    let hits = scratch.first_hits4(scene, &rays);
-    let primaries = core::array::from_fn(|l| (rays[l], hits[l]));
-    trace_from4(
-        scene,
-        primaries,
-        samples.map(|(_, seed)| seed),
-        scratch,
-        counts,
-    )
 }
 
 /// Sample `k` of pixel `(x, y)` on the scene's `m × m` pattern: its ray, and the seed of its

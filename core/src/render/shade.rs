@@ -25,9 +25,9 @@
 //! a pixel is the same everywhere. Each pending ray carries the stack of media it is inside (for
 //! nested transparent objects), so leaving an inner object returns to the outer one's index.
 //! A sample's stack and colour so far are a `RayTree`, which takes each ray's closest hit from
-//! its caller: [`trace_from4`] follows four neighbouring pixels' trees side by side and lets
-//! their next rays (mirror and refracted rays) find their hits together while all four have
-//! one. Each tree's rays, hits and sums are the ones it has traced alone.
+//! its caller: [`trace4`] follows four samples' trees side by side and lets their primary rays,
+//! then their next rays (mirror and refracted rays), find their hits together while all four
+//! have one. Each tree's rays, hits and sums are the ones it has traced alone.
 
 use crate::accel::octree::LANES;
 use crate::geom::triangle::{hit_point, unit_normal};
@@ -121,7 +121,7 @@ struct Pending {
 pub struct TraceScratch {
     query: QueryScratch,
     pending: Vec<Pending>,
-    /// The pending rays of four pixels traced together ([`trace_from4`]).
+    /// The pending rays of four samples traced together ([`trace4`]).
     packet: [Vec<Pending>; LANES],
     /// Per light, the primitives that blocked its latest shadow rays, the latest first (see
     /// [`Scene::shadowed`]).
@@ -133,16 +133,6 @@ impl TraceScratch {
     fn prepare(&mut self, scene: &Scene) {
         self.blockers
             .resize(scene.lights.len(), [None; SHADOW_CACHE]);
-    }
-
-    /// The closest hits of four primary rays, for [`trace_from4`] (their work is counted with
-    /// the four pixels' other rays).
-    pub(crate) fn first_hits4(
-        &mut self,
-        scene: &Scene,
-        rays: &[Ray; LANES],
-    ) -> [Option<PrimitiveHit>; LANES] {
-        scene.closest_hits4(rays, f32::INFINITY, &mut self.query)
     }
 }
 
@@ -351,25 +341,21 @@ pub fn trace(
     color
 }
 
-/// [`trace`] for four neighbouring pixels' primary rays whose closest hits are known (found by
-/// [`Scene::closest_hits4`]), each the colour it gives alone.
-/// After the first hits, where each of the four ray trees has a ray to follow next (a mirror
-/// ray, mostly), those four rays find their closest hits together ([`Scene::closest_hits4`]).
-pub(crate) fn trace_from4(
+/// [`trace`] for four samples (primary ray and occlusion seed: neighbouring pixels', or four of
+/// one pixel's), each the colour it gives alone. The four rays find their closest hits together
+/// ([`Scene::closest_hits4`]), and so do the next rays of the four ray trees while each has one
+/// (a mirror or refracted ray, mostly); the rest are followed one at a time.
+pub(crate) fn trace4(
     scene: &Scene,
-    primaries: [(Ray, Option<PrimitiveHit>); LANES],
-    seeds: [u32; LANES],
+    samples: [(Ray, u32); LANES],
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
     scratch.prepare(scene);
     let mut trees: [RayTree; LANES] = core::array::from_fn(|l| {
         let pending = core::mem::take(&mut scratch.packet[l]);
-        RayTree::start(primaries[l].0, seeds[l], pending)
+        RayTree::start(samples[l].0, samples[l].1, pending)
     });
-    for (tree, (_, hit)) in trees.iter_mut().zip(primaries) {
-        tree.follow(scene, hit, scratch, counts);
-    }
     while let [Some(a), Some(b), Some(c), Some(d)] = trees.each_ref().map(RayTree::next_ray) {
         let hits = scene.closest_hits4(&[a, b, c, d], f32::INFINITY, &mut scratch.query);
         for (tree, hit) in trees.iter_mut().zip(hits) {
