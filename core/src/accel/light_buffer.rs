@@ -626,13 +626,7 @@ mod tests {
                     }
                     1 => {
                         let t = tris[rng.next_u64() as usize % tris.len()];
-                        let (a, b) = (rng.next_f32(), rng.next_f32());
-                        let (a, b) = if a + b > 1.0 {
-                            (1.0 - a, 1.0 - b)
-                        } else {
-                            (a, b)
-                        };
-                        t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b
+                        rng.point_in_triangle(&t)
                     }
                     2 => light + point(&mut rng, 1e-3) * rng.next_f32().powi(8),
                     _ => {

@@ -43,6 +43,18 @@ impl Rng {
         lo + (hi - lo) * self.next_f32()
     }
 
+    /// A random point of triangle `t`, uniform over its area (two uniform weights, folded back
+    /// into the triangle where they sum past 1).
+    pub fn point_in_triangle(&mut self, t: &[Vec3; 3]) -> Vec3 {
+        let (a, b) = (self.next_f32(), self.next_f32());
+        let (a, b) = if a + b > 1.0 {
+            (1.0 - a, 1.0 - b)
+        } else {
+            (a, b)
+        };
+        t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b
+    }
+
     /// A random direction, uniform on the unit sphere.
     pub fn direction(&mut self) -> Vec3 {
         loop {

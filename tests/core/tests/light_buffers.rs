@@ -94,13 +94,7 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
         } else {
             let i = rng.next_u64() as usize % soup.len();
             let t = soup[i];
-            let (a, b) = (rng.next_f32(), rng.next_f32());
-            let (a, b) = if a + b > 1.0 {
-                (1.0 - a, 1.0 - b)
-            } else {
-                (a, b)
-            };
-            let p = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+            let p = rng.point_in_triangle(&t);
             let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
             if n == Vec3::ZERO {
                 continue;
@@ -207,13 +201,7 @@ fn light_buffers_answer_as_the_walk_at_every_scale() {
             let l = k % scene.lights.len();
             let target = scene.lights[l].position;
             let t = soup[rng.next_u64() as usize % soup.len()];
-            let (a, b) = (rng.next_f32(), rng.next_f32());
-            let (a, b) = if a + b > 1.0 {
-                (1.0 - a, 1.0 - b)
-            } else {
-                (a, b)
-            };
-            let on = t[0] + (t[1] - t[0]) * a + (t[2] - t[0]) * b;
+            let on = rng.point_in_triangle(&t);
             let origin = if k % 3 == 0 {
                 place(point(&mut rng, 3.0))
             } else {
