@@ -15,7 +15,7 @@
 //! for every `t` (`|e| ≤ u·|L − o|` per axis). A blocker has `0 < t < 1`, so the point `X − e`
 //! of the blocker moved by `−e` lies on the exact segment from `L` in direction `q`, at depth
 //! below `|q|` on `q`'s dominant axis. Each primitive is therefore filed by the projection of
-//! its points moved by up to `g ≥ |e|` (the buffer's `guard`), with every rounding of the
+//! its points moved by up to `g ≥ |e|` (the guard, from the buffer's reach), with every rounding of the
 //! projection bounded ([`crate::math::float::gamma`]); a query whose `|o − L|` could make `e`
 //! larger than `g` walks the octree instead. Cells are found by a monotone map from the face
 //! coordinates, so a value inside a primitive's range lands in one of the cells it was filed in.
@@ -158,8 +158,6 @@ pub struct LightBuffer {
     light: Vec3,
     /// The largest `|o − L|` on any axis a query may have.
     reach: f32,
-    /// Bound on the rounding `e` of a query's direction, per axis.
-    guard: f32,
     faces: [Option<Grid>; 6],
     /// Per cell, the start of its entries; one more at the end.
     starts: Vec<u32>,
@@ -211,7 +209,6 @@ impl LightBuffer {
                     let mut buffer = LightBuffer {
                         light,
                         reach,
-                        guard,
                         faces,
                         starts: Vec::new(),
                         entries: Vec::new(),
@@ -305,9 +302,10 @@ impl LightBuffer {
 
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
     /// primitives, what it keeps included: every primitive's footprints on all six faces (in
-    /// vectors of at most twice their length, or 4), the cells (at most [`CELLS_PER_PRIMITIVE`] per
-    /// footprint plus the rounding up of [`MAX_SIDE`]-bounded sides on each face) counted,
-    /// started and filled in three `u32` arrays, and the kept entries within their budget.
+    /// vectors of at most twice their length, or 4), the cells (at most
+    /// [`CELLS_PER_PRIMITIVE`] per footprint plus the rounding up of [`MAX_SIDE`]-bounded sides
+    /// on each face) counted, started and filled in three `u32` arrays, and the kept entries
+    /// within their budget.
     pub fn peak_bytes(primitives: usize) -> u64 {
         let n = primitives as u64;
         let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
@@ -316,19 +314,9 @@ impl LightBuffer {
         footprints + 3 * cells * size_of::<u32>() as u64 + kept * size_of::<Entry>() as u64
     }
 
-    /// The light's position.
-    pub fn light(&self) -> Vec3 {
-        self.light
-    }
-
     /// Cells over all faces and entries filed in them.
     pub fn size(&self) -> (usize, usize) {
         (self.starts.len().saturating_sub(1), self.entries.len())
-    }
-
-    /// The guard: the bound on a query direction's rounding the filing allows for.
-    pub fn guard(&self) -> f32 {
-        self.guard
     }
 }
 
