@@ -100,7 +100,7 @@ pub enum Candidates<'a> {
     },
 }
 
-/// One face's grid: the cells over `[u0, u1] × [v0, v1]` of the face's plane at depth 1.
+/// One face's grid: the cells over `[lo, hi]` in `u` and `v` of the face's plane at depth 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Grid {
     lo: [f32; 2],
@@ -511,6 +511,27 @@ mod tests {
         Vec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r))
     }
 
+    /// `n` triangles of corners within `size` of centres within `spread` of the origin.
+    fn scatter(rng: &mut Rng, n: usize, spread: f32, size: f32) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|_| {
+                let c = point(rng, spread);
+                [0; 3].map(|_| c + point(rng, size))
+            })
+            .collect()
+    }
+
+    /// The box around the triangles and boxes, as the scene hands it to the build.
+    fn bounds_of(tris: &[[Vec3; 3]], boxes: &[Option<Aabb>]) -> Aabb {
+        let mut bounds = Aabb::EMPTY;
+        tris.iter().flatten().for_each(|&p| bounds.add_point(p));
+        boxes.iter().flatten().for_each(|b| {
+            bounds.add_point(b.min);
+            bounds.add_point(b.max);
+        });
+        bounds
+    }
+
     /// Small and large triangles, some of them through the light or with a corner on it.
     fn soup(rng: &mut Rng, light: Vec3) -> Vec<[Vec3; 3]> {
         let mut tris: Vec<[Vec3; 3]> = (0..400)
@@ -572,12 +593,7 @@ mod tests {
                     })
                 })
                 .collect();
-            let mut bounds = Aabb::EMPTY;
-            tris.iter().flatten().for_each(|&p| bounds.add_point(p));
-            boxes.iter().flatten().for_each(|b| {
-                bounds.add_point(b.min);
-                bounds.add_point(b.max);
-            });
+            let bounds = bounds_of(&tris, &boxes);
             let buffer = LightBuffer::build(light, &bounds, &tris, &boxes).expect("a buffer");
             // Through every corner, seen from the light: among them the corners that bound
             // the grids, where only the margins keep a ray's rounded direction inside.
@@ -665,16 +681,10 @@ mod tests {
         let mut rng = Rng::new(8);
         let light = Vec3::new(0.0, 5.0, 0.0);
         // A crowd of tiny triangles in one spot, and a spread of others.
-        let mut tris: Vec<[Vec3; 3]> = (0..300)
-            .map(|_| {
-                let c = point(&mut rng, 2.0);
-                [0; 3].map(|_| c + point(&mut rng, 0.05))
-            })
-            .collect();
+        let mut tris = scatter(&mut rng, 300, 2.0, 0.05);
         let spot = Vec3::new(0.5, 0.0, 0.5);
         tris.extend((0..200).map(|_| [0; 3].map(|_| spot + point(&mut rng, 0.01))));
-        let mut bounds = Aabb::EMPTY;
-        tris.iter().flatten().for_each(|&p| bounds.add_point(p));
+        let bounds = bounds_of(&tris, &[]);
         let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
         let o = Vec3::new(0.2, -1.0, 0.3);
         assert!(listed(buffer.candidates(&Ray::new(o, light - o), 1.0)).is_some());
@@ -707,14 +717,8 @@ mod tests {
     #[test]
     fn crowds_around_the_light_get_no_buffer() {
         let mut rng = Rng::new(9);
-        let tris: Vec<[Vec3; 3]> = (0..2000)
-            .map(|_| {
-                let c = point(&mut rng, 1.0);
-                [0; 3].map(|_| c + point(&mut rng, 0.8))
-            })
-            .collect();
-        let mut bounds = Aabb::EMPTY;
-        tris.iter().flatten().for_each(|&p| bounds.add_point(p));
+        let tris = scatter(&mut rng, 2000, 1.0, 0.8);
+        let bounds = bounds_of(&tris, &[]);
         assert_eq!(LightBuffer::build(Vec3::ZERO, &bounds, &tris, &[]), None);
     }
 
@@ -722,14 +726,8 @@ mod tests {
     fn cells_list_nearest_first() {
         let mut rng = Rng::new(10);
         let light = Vec3::new(0.0, 0.0, -8.0);
-        let tris: Vec<[Vec3; 3]> = (0..500)
-            .map(|_| {
-                let c = point(&mut rng, 2.0);
-                [0; 3].map(|_| c + point(&mut rng, 0.3))
-            })
-            .collect();
-        let mut bounds = Aabb::EMPTY;
-        tris.iter().flatten().for_each(|&p| bounds.add_point(p));
+        let tris = scatter(&mut rng, 500, 2.0, 0.3);
+        let bounds = bounds_of(&tris, &[]);
         let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
         let (cells, entries) = buffer.size();
         assert!(
