@@ -7,6 +7,7 @@
 //! The leading `0x00` ends any garbage the line picked up between frames, so garbage costs no
 //! frame. Empty frames (two delimiters in a row) are skipped silently.
 
+use crate::wire::cobs;
 use crate::wire::error::ProtocolError;
 use crate::wire::{frame_len, CRC_LEN};
 use alloc::vec::Vec;
@@ -148,7 +149,7 @@ impl<B: AsMut<[u8]>> FrameReader<B> {
 
 /// Decodes a COBS-encoded frame body in place and checks its CRC; returns the payload length.
 fn decode_frame(body: &mut [u8]) -> Option<usize> {
-    let n = cobs::decode_in_place(body).ok()?;
+    let n = cobs::decode_in_place(body)?;
     let payload_len = n.checked_sub(CRC_LEN)?;
     let (payload, crc) = body[..n].split_at(payload_len);
     let expected = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);

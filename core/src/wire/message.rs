@@ -73,6 +73,7 @@ pub enum MasterMessage<'a> {
         /// Position of the first byte in the scene's encoding.
         offset: u32,
         /// At most [`MAX_CHUNK_LEN`] bytes.
+        #[serde(serialize_with = "as_bytes")]
         bytes: &'a [u8],
     },
     /// Render one line of the job's image and send a `LineResult` (`refined: false`). With
@@ -100,6 +101,7 @@ pub enum MasterMessage<'a> {
         /// The line, 0 is the top.
         line: u32,
         /// One bit per pixel (`crate::render::adaptive::mask_len` bytes), at most [`MAX_MASK_LEN`].
+        #[serde(serialize_with = "as_bytes")]
         mask: &'a [u8],
     },
     /// Render lines `first..first + count` (1 to [`MAX_LINES_PER_REQUEST`]): the same as
@@ -192,6 +194,7 @@ pub enum WorkerMessage<'a> {
         /// Rays traced for it, by kind.
         rays: RayCounts,
         /// The line's pixels, [`PIXEL_WIRE_BYTES`] each ([`encode_pixels`]).
+        #[serde(serialize_with = "as_bytes")]
         pixels: &'a [u8],
     },
     /// The answer to `Fence`.
@@ -293,6 +296,14 @@ impl<'a> WorkerMessage<'a> {
     }
 }
 
+/// Serializes a byte field as bytes (postcard: its length, then the bytes copied whole). Serde
+/// writes a `&[u8]` as a sequence, one `u8` at a time; postcard encodes both the same way, so
+/// this changes no byte on the wire, only the time: a line's pixels went through serde one byte
+/// at a time.
+fn as_bytes<S: serde::Serializer>(bytes: &&[u8], serializer: S) -> Result<S::Ok, S::Error> {
+    serializer.serialize_bytes(bytes)
+}
+
 /// Decodes a whole payload: bytes left over make it invalid too.
 fn decode_exact<'a, T: Deserialize<'a>>(payload: &'a [u8]) -> Result<T, ProtocolError> {
     match postcard::take_from_bytes(payload) {
@@ -334,4 +345,50 @@ pub fn decode_pixels(bytes: &[u8], out: &mut [Pixel]) -> Result<(), ProtocolErro
         ]);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use alloc::vec::Vec;
+
+    /// The byte fields are written as bytes ([`as_bytes`]) but must keep the layout serde gives
+    /// a sequence of `u8` (a `Vec<u8>`, written one element at a time): each message equals
+    /// the tuple of its variant number and its fields, the bytes as such a sequence.
+    #[test]
+    fn byte_fields_keep_the_layout_of_a_sequence() {
+        let bytes: Vec<u8> = (0..=255u8).cycle().take(700).collect();
+        let rays = RayCounts {
+            primary: 512,
+            shadow: 77,
+            ..RayCounts::default()
+        };
+        let line = WorkerMessage::LineResult {
+            job: 9,
+            line: 300,
+            refined: true,
+            rays,
+            pixels: &bytes[..600],
+        };
+        let want = postcard::to_allocvec(&(3u32, 9u32, 300u32, true, rays, bytes[..600].to_vec()));
+        assert_eq!(encoded(&line), want.ok());
+        let chunk = MasterMessage::SceneChunk {
+            digest: [7; 32],
+            offset: 70_000,
+            bytes: &bytes,
+        };
+        let want = postcard::to_allocvec(&(2u32, [7u8; 32], 70_000u32, bytes.clone()));
+        assert_eq!(encoded(&chunk), want.ok());
+        let refine = MasterMessage::RefineLine {
+            job: 1,
+            line: 2,
+            mask: &bytes[..64],
+        };
+        let want = postcard::to_allocvec(&(6u32, 1u32, 2u32, bytes[..64].to_vec()));
+        assert_eq!(encoded(&refine), want.ok());
+    }
+
+    fn encoded<T: Serialize>(message: &T) -> Option<Vec<u8>> {
+        postcard::to_allocvec(message).ok()
+    }
 }

@@ -1,6 +1,7 @@
 //! The wire protocol between a master and its workers, the same on every transport.
 //!
 //! It reads bottom up:
+//! - [`cobs`]: the byte stuffing that keeps `0x00` out of a frame's body.
 //! - [`frame`]: a frame is a postcard payload followed by its CRC-32, COBS-encoded, with a `0x00`
 //!   byte before and after. A frame that fails its CRC or does not decode is dropped, never used;
 //!   the next `0x00` resynchronises the stream. [`frame::FrameReader`] reads frames from any
@@ -14,7 +15,7 @@
 //! - [`error`]: [`ProtocolError`](error::ProtocolError), why bytes from the wire cannot be used.
 //!
 //! Wire code is pure: it turns bytes into validated messages and back and never renders; the
-//! worker loop that acts on the messages is [`crate::worker`]. Inside the layer: `error` ←
+//! worker loop that acts on the messages is [`crate::worker`]. Inside the layer: `error`, `cobs` ←
 //! `frame`, `message` ← `scene_blob`. The layer uses `scene` (the scene description it
 //! transfers) and `render` (pixels and ray counts it carries).
 //!
@@ -22,6 +23,7 @@
 //! `docs/protocol.md` describes the message sequence.
 
 pub mod auth;
+pub mod cobs;
 pub mod error;
 pub mod frame;
 pub mod message;
