@@ -86,6 +86,41 @@ fn closed_sphere_packets() {
     assert!(hits > 10_000, "too few hits ({hits}) to mean anything");
 }
 
+/// Packets that pass the tree by, all four rays or some of them: rays aimed at points beside
+/// the triangles' bounds (the background around a model) find nothing, as walked alone, and
+/// their neighbours still find their hits.
+#[test]
+fn packets_beside_the_tree() {
+    let tris = random_soup(400, &mut Rng::new(6));
+    let tree = Octree::build(&tris, &OctreeParams::default());
+    let (lo, hi) = bounds(&tris);
+    let ext = hi - lo;
+    let mut rng = Rng::new(25);
+    let (mut hits, mut blank) = (0, 0);
+    for i in 0..6_000 {
+        let eye = lo - ext + ext * 3.0 * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let inside = lo + ext * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        // Beside the bounds: pushed out along one axis, past the far side.
+        let mut beside = inside;
+        let a = i % 3;
+        beside[a] = if rng.next_f32() < 0.5 {
+            lo[a] - ext[a]
+        } else {
+            hi[a] + ext[a]
+        };
+        let rays: [Ray; LANES] = std::array::from_fn(|l| {
+            let target = if i % 2 == 0 || l < 2 { beside } else { inside };
+            let wiggle = ext * 1e-3 * l as f32;
+            Ray::new(eye, target + wiggle - eye)
+        });
+        let found = check(&tree, &tris, &rays);
+        hits += found;
+        blank += usize::from(i % 2 == 0 && found == 0);
+    }
+    assert!(blank > 1_000, "only {blank} packets met nothing");
+    assert!(hits > 1_000, "too few hits ({hits}) to mean anything");
+}
+
 /// A grid whose edges and vertices lie on the centre planes, with rays from grid points along
 /// diagonals: their crossings of two or three centre planes tie, at cell edges and corners.
 #[test]
