@@ -191,7 +191,9 @@ impl RayFrame4 {
         if frames[1..].iter().any(|f| axes(f) != axes(&frames[0])) {
             return None;
         }
-        let lanes = |f: &dyn Fn(&RayFrame) -> f32| Vec4::from_array(frames.each_ref().map(f));
+        let lanes = |f: &dyn Fn(&RayFrame) -> f32| {
+            Vec4::new(f(&frames[0]), f(&frames[1]), f(&frames[2]), f(&frames[3]))
+        };
         Some(RayFrame4 {
             kx: frames[0].kx,
             ky: frames[0].ky,

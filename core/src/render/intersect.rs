@@ -15,7 +15,7 @@
 //! [`QueryWork`].
 
 use crate::accel::light_buffer::Candidates;
-use crate::accel::octree::{lanes_of, GroupBlocks, GroupTests, LANES};
+use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
@@ -250,11 +250,11 @@ impl Scene {
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
         if self.group_spheres {
-            return core::array::from_fn(|l| self.closest_hit(&rays[l], t_max, scratch));
+            return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
         }
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
-        let frames = rays.each_ref().map(QueryFrame::new);
-        let frame4 = RayFrame4::new(&frames.each_ref().map(|f| f.triangles));
+        let frames = per_lane(|l| QueryFrame::new(&rays[l]));
+        let frame4 = RayFrame4::new(&per_lane(|l| frames[l].triangles));
         let n = self.triangle_points.len() as u32;
         let hits = self
             .octree
@@ -286,7 +286,7 @@ impl Scene {
                     }
                 }
             });
-        core::array::from_fn(|l| {
+        per_lane(|l| {
             let best = hits[l];
             self.closest_unbounded(&rays[l], t_max, best, spans, work)
         })

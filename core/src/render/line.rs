@@ -11,7 +11,7 @@
 //! pixels that differ from a neighbour. Every decision depends on the scene and
 //! the pixel alone, so any executor on any machine produces the same pixels.
 
-use crate::accel::octree::LANES;
+use crate::accel::octree::{per_lane, LANES};
 use crate::math::ray::Ray;
 use crate::render::error::RenderError;
 use crate::render::pixel::Pixel;
@@ -82,7 +82,7 @@ fn single_samples(
         }
         return;
     };
-    let samples: [(Ray, u32); LANES] = core::array::from_fn(|l| sample(scene, x + l as u32, y, 0));
+    let samples = per_lane(|l| sample(scene, x + l as u32, y, 0));
     let colors = trace4(scene, samples, scratch, counts);
     for (px, color) in four.iter_mut().zip(colors) {
         *px = Pixel::from_color(color);
@@ -116,8 +116,7 @@ pub(crate) fn supersample(
     // are added in sample order, as one at a time.
     let mut k = 0;
     while k + LANES as u32 <= n {
-        let samples: [(Ray, u32); LANES] =
-            core::array::from_fn(|l| sample(scene, x, y, k + l as u32));
+        let samples = per_lane(|l| sample(scene, x, y, k + l as u32));
         for color in trace4(scene, samples, scratch, counts) {
             sum += color;
         }

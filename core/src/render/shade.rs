@@ -29,7 +29,7 @@
 //! then their next rays (mirror and refracted rays), find their hits together while all four
 //! have one. Each tree's rays, hits and sums are the ones it has traced alone.
 
-use crate::accel::octree::LANES;
+use crate::accel::octree::{per_lane, LANES};
 use crate::geom::triangle::{hit_point, unit_normal};
 use crate::math::ray::{offset_ray_origin, Ray};
 use crate::render::intersect::{PrimitiveHit, QueryScratch, SHADOW_CACHE};
@@ -352,17 +352,17 @@ pub(crate) fn trace4(
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
     scratch.prepare(scene);
-    let mut trees: [RayTree; LANES] = core::array::from_fn(|l| {
+    let mut trees = per_lane(|l| {
         let pending = core::mem::take(&mut scratch.packet[l]);
         RayTree::start(samples[l].0, samples[l].1, pending)
     });
-    while let [Some(a), Some(b), Some(c), Some(d)] = trees.each_ref().map(RayTree::next_ray) {
+    while let [Some(a), Some(b), Some(c), Some(d)] = per_lane(|l| trees[l].next_ray()) {
         let hits = scene.closest_hits4(&[a, b, c, d], f32::INFINITY, &mut scratch.query);
         for (tree, hit) in trees.iter_mut().zip(hits) {
             tree.follow(scene, hit, scratch, counts);
         }
     }
-    let colors = core::array::from_fn(|l| trees[l].finish(scene, scratch, counts));
+    let colors = per_lane(|l| trees[l].finish(scene, scratch, counts));
     for (buffer, tree) in scratch.packet.iter_mut().zip(trees) {
         *buffer = tree.pending;
     }

@@ -38,7 +38,7 @@ mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod packet;
-pub use packet::{lanes_of, LANES};
+pub use packet::{lanes_of, per_lane, LANES};
 mod traverse;
 pub use crate::geom::hit::GROUP;
 pub use traverse::{GroupBlocks, GroupTests};
