@@ -15,9 +15,9 @@
 //! - [`error`]: [`ProtocolError`](error::ProtocolError), why bytes from the wire cannot be used.
 //!
 //! Wire code is pure: it turns bytes into validated messages and back and never renders; the
-//! worker loop that acts on the messages is [`crate::worker`]. Inside the layer: `error`, `cobs` ←
-//! `frame`, `message` ← `scene_blob`. The layer uses `scene` (the scene description it
-//! transfers) and `render` (pixels and ray counts it carries).
+//! worker loop that acts on the messages is [`crate::worker`]. Inside the layer: `error` and
+//! `cobs` ← `frame`, `message` ← `scene_blob`. The layer uses `scene` (the scene description
+//! it transfers) and `render` (pixels and ray counts it carries).
 //!
 //! The limits below are part of the protocol: a peer that exceeds one is sending bad frames.
 //! `docs/protocol.md` describes the message sequence.
