@@ -15,10 +15,11 @@
 //! for every `t` (`|e| ≤ u·|L − o|` per axis). A blocker has `0 < t < 1`, so the point `X − e`
 //! of the blocker moved by `−e` lies on the exact segment from `L` in direction `q`, at depth
 //! below `|q|` on `q`'s dominant axis. Each primitive is therefore filed by the projection of
-//! its points moved by up to `g ≥ |e|` (the guard, from the buffer's reach), with every rounding of the
-//! projection bounded ([`crate::math::float::gamma`]); a query whose `|o − L|` could make `e`
-//! larger than `g` walks the octree instead. Cells are found by a monotone map from the face
-//! coordinates, so a value inside a primitive's range lands in one of the cells it was filed in.
+//! its points moved by up to `g ≥ |e|` (the guard, from the buffer's reach), with every
+//! rounding of the projection bounded ([`crate::math::float::gamma`]); a query whose `|o − L|`
+//! could make `e` larger than `g` walks the octree instead. Cells are found by a monotone map
+//! from the face coordinates, so a value inside a primitive's range lands in one of the cells
+//! it was filed in.
 //!
 //! Like the octree, the buffer relies on the primitive tests reporting hits on the primitive
 //! (or its box, for solids): the triangle test's known `f32` exception for rays grazing a face

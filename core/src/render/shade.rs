@@ -120,8 +120,8 @@ struct Pending {
 #[derive(Clone, Debug, Default)]
 pub struct TraceScratch {
     query: QueryScratch,
-    pending: Vec<Pending>,
-    /// The pending rays of four samples traced together ([`trace4`]).
+    /// The pending rays of the samples traced: four together ([`trace4`]), or the first alone
+    /// ([`trace`]).
     packet: [Vec<Pending>; LANES],
     /// Per light, the primitives that blocked its latest shadow rays, the latest first (see
     /// [`Scene::shadowed`]).
@@ -333,10 +333,10 @@ pub fn trace(
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> Vec3 {
-    let mut tree = RayTree::start(primary, seed, core::mem::take(&mut scratch.pending));
+    let mut tree = RayTree::start(primary, seed, core::mem::take(&mut scratch.packet[0]));
     scratch.prepare(scene);
     let color = tree.finish(scene, scratch, counts);
-    scratch.pending = tree.pending;
+    scratch.packet[0] = tree.pending;
     counts.work += core::mem::take(&mut scratch.query.work);
     color
 }
