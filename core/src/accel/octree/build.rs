@@ -19,7 +19,7 @@
 //! leaf whose split would not pay (its primitives overlap too much to separate) stays a leaf. The
 //! order depends only on the scene, so every machine builds the same tree.
 
-use super::filing::{ChildCells, Filing};
+use super::filing::{bits, ChildCells, Filing};
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
@@ -88,7 +88,7 @@ struct Leaf {
 /// lists, made in one allocation when the parent was appraised), so a split copies nothing. The
 /// list is freed when the last leaf over it is split or the tree is laid out.
 struct Refs {
-    list: Rc<Vec<u32>>,
+    list: Rc<[u32]>,
     start: u32,
     end: u32,
 }
@@ -98,7 +98,7 @@ impl Refs {
     fn all(list: Vec<u32>) -> Refs {
         let end = list.len() as u32;
         Refs {
-            list: Rc::new(list),
+            list: Rc::from(list),
             start: 0,
             end,
         }
@@ -117,7 +117,7 @@ impl Refs {
 /// every cell of the tree being built has, so it stays small): child `c`'s are
 /// `refs[start(c)..ends[c]]`, where `start(0)` is 0 and `start(c)` is `ends[c − 1]`.
 struct Children {
-    refs: Vec<u32>,
+    refs: Rc<[u32]>,
     ends: [u32; 8],
 }
 
@@ -129,9 +129,8 @@ impl Children {
 
     /// The lists as the children's [`Refs`], sharing one allocation.
     fn into_refs(self) -> [Refs; 8] {
-        let list = Rc::new(self.refs);
         core::array::from_fn(|c| Refs {
-            list: Rc::clone(&list),
+            list: Rc::clone(&self.refs),
             start: if c == 0 { 0 } else { self.ends[c - 1] },
             end: self.ends[c],
         })
@@ -447,8 +446,8 @@ impl Builder<'_> {
         let mut ends = [0u32; 8];
         for &t in refs {
             let mask = self.filing.children_touched(&cells, t as usize);
-            for (c, end) in ends.iter_mut().enumerate() {
-                *end += u32::from(mask >> c & 1);
+            for c in bits(mask) {
+                ends[c] += 1;
             }
             masks.push(mask);
         }
@@ -456,12 +455,12 @@ impl Builder<'_> {
             ends[c] += ends[c - 1];
         }
         let mut next: [u32; 8] = core::array::from_fn(|c| if c == 0 { 0 } else { ends[c - 1] });
-        let mut lists = alloc::vec![0u32; ends[7] as usize];
-        for (&t, &mask) in refs.iter().zip(&masks) {
-            for (c, at) in next.iter_mut().enumerate() {
-                if mask >> c & 1 == 1 {
-                    lists[*at as usize] = t;
-                    *at += 1;
+        let mut lists: Rc<[u32]> = core::iter::repeat_n(0, ends[7] as usize).collect();
+        if let Some(out) = Rc::get_mut(&mut lists) {
+            for (&t, &mask) in refs.iter().zip(&masks) {
+                for c in bits(mask) {
+                    out[next[c] as usize] = t;
+                    next[c] += 1;
                 }
             }
         }

@@ -5,11 +5,12 @@
 //! answers [`Filing::children_touched`]. The answer for one primitive comes in three steps, each
 //! exact, from cheap to dear:
 //! 1. Its box against the centre planes (exact comparisons, no margin) gives the candidate
-//!    children. A box on one side of every plane has one candidate, and the parent's test
+//!    children. Steps 1 and 2 compare all three axes in the lanes of one [`Vec3A`] and look the
+//!    children up in [`REACHED`] by which sides of the planes were reached. A box on one side of every plane has one candidate, and the parent's test
 //!    already said the primitive touches the parent, so that is the answer.
 //! 2. For a triangle, every child whose grown box holds one of its vertices is touched: each
-//!    vertex is placed in the grown halves of each axis (twelve comparisons per vertex, however
-//!    many candidates there are).
+//!    vertex is placed in the grown halves of each axis (four comparisons of three lanes per
+//!    vertex, however many candidates there are).
 //! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
 //!    sphere-surface test (lone spheres) or the box test (other solids).
 //!
@@ -22,21 +23,50 @@ use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
-use glam::Vec3;
+use glam::{BVec3A, Vec3, Vec3A};
 
 /// Per axis, the children on its upper side (bit `a` of the child's index set).
 const UPPER: [u8; 3] = [0xAA, 0xCC, 0xF0];
 
+/// The children a point or a box may be in, by which sides of the centre planes it reaches:
+/// entry `lower | upper << 3`, where bit `a` of `lower` (of `upper`) says it reaches the lower
+/// (upper) side of axis `a`'s plane, is the children on a reached side of every axis.
+const REACHED: [u8; 64] = {
+    let mut table = [0u8; 64];
+    let mut k = 0;
+    while k < 64 {
+        let mut mask = 0xFFu8;
+        let mut a = 0;
+        while a < 3 {
+            let lower = if k >> a & 1 == 1 { !UPPER[a] } else { 0 };
+            let upper = if k >> (a + 3) & 1 == 1 { UPPER[a] } else { 0 };
+            mask &= lower | upper;
+            a += 1;
+        }
+        table[k] = mask;
+        k += 1;
+    }
+    table
+};
+
+/// [`REACHED`] for the sides given as lane masks (lane `a` for axis `a`).
+#[inline]
+fn reached(lower: BVec3A, upper: BVec3A) -> u8 {
+    REACHED[(lower.bitmask() | upper.bitmask() << 3) as usize]
+}
+
 /// The eight children of a cell split at its centre, as the filing tests need them.
 pub(super) struct ChildCells {
-    mid: Vec3,
-    /// Each child's box.
-    boxes: [Aabb; 8],
+    mid: Vec3A,
+    /// Each child's centre and half size, grown by the margin, for the separating-axis test.
+    centers: [Vec3; 8],
+    halves: [Vec3; 8],
     /// Each child's box grown by the margin: (lower corner, upper corner).
     grown: [(Vec3, Vec3); 8],
-    /// Per axis, the lower and the upper half of the cell grown by the margin, as (low, high):
-    /// the same numbers as the grown boxes' sides on that axis.
-    halves: [[(f32, f32); 2]; 3],
+    /// The lower and the upper half of the cell grown by the margin, each as (low, high) per
+    /// axis: the same numbers as the grown boxes' sides.
+    lower: (Vec3A, Vec3A),
+    upper: (Vec3A, Vec3A),
 }
 
 impl ChildCells {
@@ -47,57 +77,34 @@ impl ChildCells {
         let boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
         let grown = boxes.map(|b| (b.min - m, b.max + m));
         let (lower, upper) = (grown[0], grown[7]);
-        let halves = core::array::from_fn(|a| [(lower.0[a], lower.1[a]), (upper.0[a], upper.1[a])]);
         ChildCells {
-            mid,
-            boxes,
+            mid: mid.into(),
+            centers: boxes.map(|b| b.center()),
+            halves: boxes.map(|b| (b.max - b.min) * 0.5 + m),
             grown,
-            halves,
+            lower: (lower.0.into(), lower.1.into()),
+            upper: (upper.0.into(), upper.1.into()),
         }
     }
 
     /// The children whose grown box holds the point `v` (bit `c` for child `c`): per axis the
     /// halves that hold its coordinate, intersected over the axes.
     #[inline]
-    fn holding(&self, v: Vec3) -> u8 {
-        let mut mask = 0xFFu8;
-        for (a, &[(lo_l, hi_l), (lo_u, hi_u)]) in self.halves.iter().enumerate() {
-            let lower = if v[a] >= lo_l && v[a] <= hi_l {
-                !UPPER[a]
-            } else {
-                0
-            };
-            let upper = if v[a] >= lo_u && v[a] <= hi_u {
-                UPPER[a]
-            } else {
-                0
-            };
-            mask &= lower | upper;
-        }
-        mask
+    fn holding(&self, v: Vec3A) -> u8 {
+        let inside = |(lo, hi): (Vec3A, Vec3A)| v.cmpge(lo) & v.cmple(hi);
+        reached(inside(self.lower), inside(self.upper))
     }
 
-    /// The children the box `b` may reach, by exact comparisons with the centre planes, and
-    /// whether it straddles one of them. A box on one side of a plane, touching it or lying in
-    /// it, goes to that side only: its points on the plane are in that side's closed cells too,
-    /// and the walk visits the cells on both sides of every point of a ray's path that lies on a
-    /// centre plane (see `traverse.rs`).
+    /// The children the box `min..max` may reach, by exact comparisons with the centre planes,
+    /// and whether it straddles one of them. A box on one side of a plane, touching it or lying
+    /// in it, goes to that side only: its points on the plane are in that side's closed cells
+    /// too, and the walk visits the cells on both sides of every point of a ray's path that lies
+    /// on a centre plane (see `traverse.rs`).
     #[inline]
-    fn candidates(&self, b: &Aabb) -> (u8, bool) {
-        let mut candidates = 0xFFu8;
-        let mut straddles = false;
-        for (a, &upper) in UPPER.iter().enumerate() {
-            let lo = b.min[a] < self.mid[a];
-            let hi = b.max[a] > self.mid[a] || !lo;
-            straddles |= lo && hi;
-            candidates &= match (lo, hi) {
-                (true, true) => 0xFF,
-                (true, false) => !upper,
-                (false, true) => upper,
-                (false, false) => 0,
-            };
-        }
-        (candidates, straddles)
+    fn candidates(&self, min: Vec3A, max: Vec3A) -> (u8, bool) {
+        let lower = min.cmplt(self.mid);
+        let upper = max.cmpgt(self.mid) | !lower;
+        (reached(lower, upper), (lower & upper).any())
     }
 }
 
@@ -126,26 +133,27 @@ impl Filing<'_> {
     }
 
     /// [`Filing::children_touched`] for the triangle `p`. Its box is computed from its vertices
-    /// (the same numbers as a stored box), so the build loads one record per triangle.
+    /// (the same comparisons as with a stored box), so the build loads one record per triangle.
     #[inline]
     fn triangle_children(&self, cells: &ChildCells, p: &[Vec3; 3]) -> u8 {
-        let (candidates, straddles) = cells.candidates(&Aabb::of_triangle(p));
+        let v = p.map(Vec3A::from);
+        let (min, max) = (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]));
+        let (candidates, straddles) = cells.candidates(min, max);
         if !straddles {
             return candidates;
         }
-        let held = candidates & (cells.holding(p[0]) | cells.holding(p[1]) | cells.holding(p[2]));
+        let held = candidates & (cells.holding(v[0]) | cells.holding(v[1]) | cells.holding(v[2]));
         let mut mask = held;
         for c in bits(candidates & !held) {
-            let b = &cells.boxes[c];
-            let half = (b.max - b.min) * 0.5 + Vec3::splat(self.margin);
-            mask |= u8::from(triangle_box_overlap(b.center(), half, p)) << c;
+            mask |= u8::from(triangle_box_overlap(cells.centers[c], cells.halves[c], p)) << c;
         }
         mask
     }
 
     /// [`Filing::children_touched`] for solid `j`.
     fn solid_children(&self, cells: &ChildCells, j: usize) -> u8 {
-        let (candidates, straddles) = cells.candidates(&self.reach[j]);
+        let b = &self.reach[j];
+        let (candidates, straddles) = cells.candidates(b.min.into(), b.max.into());
         if !straddles {
             return candidates;
         }
@@ -175,7 +183,7 @@ impl Filing<'_> {
 }
 
 /// The indices of the bits set in `mask`, lowest first.
-fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
+pub(super) fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
         let c = mask.trailing_zeros() as usize;
         mask &= mask.wrapping_sub(1);

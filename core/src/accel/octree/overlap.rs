@@ -2,7 +2,7 @@
 //! theorem (Akenine-Möller 2001), and a sphere's surface against a box (Arvo 1990: the nearest
 //! and the farthest point of the box from the centre).
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A, Vec3Swizzles};
 
 /// True if the surface of the sphere `center`, `radius` comes within `margin` of the box
 /// `lo..hi`: the box reaches the sphere grown by `margin` and is not inside the sphere shrunk by
@@ -37,40 +37,53 @@ pub(super) fn sphere_surface_box_overlap(
 
 /// True unless one of the 13 separating axes (3 box faces, the triangle's plane, 9 edge cross
 /// products) separates the triangle from the box `centre ± half`. Touching counts as overlap.
+///
+/// Each group of three axes is decided in the lanes of one [`Vec3A`]: lane `a` computes exactly
+/// what a scalar test of axis `a` computes (the same products and sums in the same order), and
+/// the comparisons replace the minimum and maximum of three projections (the same answer for
+/// the finite coordinates the build files), so the answer is the scalar test's on every target.
 pub(super) fn triangle_box_overlap(center: Vec3, half: Vec3, tri: &[Vec3; 3]) -> bool {
-    let v = [tri[0] - center, tri[1] - center, tri[2] - center];
+    let (c, h) = (Vec3A::from(center), Vec3A::from(half));
+    let v = [
+        Vec3A::from(tri[0]) - c,
+        Vec3A::from(tri[1]) - c,
+        Vec3A::from(tri[2]) - c,
+    ];
     // Box face normals: the triangle's extent on each axis.
-    for a in 0..3 {
-        let lo = v[0][a].min(v[1][a]).min(v[2][a]);
-        let hi = v[0][a].max(v[1][a]).max(v[2][a]);
-        if lo > half[a] || hi < -half[a] {
-            return false;
-        }
+    if separated(v, h) {
+        return false;
     }
     let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
     // The triangle's plane.
-    let n = e[0].cross(e[1]);
-    let d = n.dot(v[0]);
+    let n = Vec3::from(e[0]).cross(Vec3::from(e[1]));
+    let d = n.dot(Vec3::from(v[0]));
     let r = half.dot(n.abs());
     if d.abs() > r {
         return false;
     }
-    // Cross products of the box axes with the triangle edges: axis `a` crossed with an edge has
-    // a zero in component `a`, so each projection is a sum of two products (the same numbers
-    // as the full dot products, but for the sign of a zero, which no comparison sees).
-    for edge in &e {
-        for (i, j) in [(1, 2), (2, 0), (0, 1)] {
-            // unit(a) × edge = (.., −edge[j] at i, edge[i] at j, ..) for (a, i, j) cyclic.
-            let (ai, aj) = (-edge[j], edge[i]);
-            let project = |p: Vec3| ai * p[i] + aj * p[j];
-            let (p0, p1, p2) = (project(v[0]), project(v[1]), project(v[2]));
-            let r = half[i] * ai.abs() + half[j] * aj.abs();
-            if p0.min(p1).min(p2) > r || p0.max(p1).max(p2) < -r {
-                return false;
-            }
+    // Cross products of the box axes with an edge: axis `a` crossed with the edge has a zero in
+    // component `a`, so each projection is a sum of two products (the same numbers as the full
+    // dot products, but for the sign of a zero, which no comparison sees). In lane `a`, with
+    // `(i, j)` the two axes after `a`: unit(a) × edge = (.., −edge[j] at i, edge[i] at j, ..).
+    let (hi, hj) = (h.yzx(), h.zxy());
+    for edge in e {
+        let (ai, aj) = (-edge.zxy(), edge.yzx());
+        let project = |p: Vec3A| ai * p.yzx() + aj * p.zxy();
+        let r = hi * ai.abs() + hj * aj.abs();
+        if separated([project(v[0]), project(v[1]), project(v[2])], r) {
+            return false;
         }
     }
     true
+}
+
+/// True if in some lane all three of `p` lie above `r` or all below `−r`: the interval the
+/// three projections span misses `−r..r` on that lane's axis.
+#[inline]
+fn separated(p: [Vec3A; 3], r: Vec3A) -> bool {
+    let above = p[0].cmpgt(r) & p[1].cmpgt(r) & p[2].cmpgt(r);
+    let below = p[0].cmplt(-r) & p[1].cmplt(-r) & p[2].cmplt(-r);
+    (above | below).any()
 }
 
 #[cfg(test)]
@@ -203,20 +216,28 @@ mod tests {
     }
 
     #[test]
-    fn written_out_edge_axes_decide_as_full_products() {
+    fn written_out_edge_axes_in_lanes_decide_as_full_products() {
         let mut next = coordinates();
         let (mut overlaps, mut by_edges) = (0, 0);
-        for _ in 0..200_000 {
-            let tri = [(); 3].map(|_| Vec3::new(next(), next(), next()));
+        // Centres off the origin too, where `tri − center` rounds.
+        let centers = [
+            Vec3::ZERO,
+            Vec3::new(0.3, -1.7, 2.9),
+            Vec3::new(-1e3, 37.1, 0.01),
+        ];
+        for k in 0..200_000 {
+            let center = centers[k % centers.len()];
+            let tri = [(); 3].map(|_| Vec3::new(next(), next(), next()) + center);
             let half = Vec3::ONE + Vec3::new(next(), 0.0, next()).abs() * 0.25;
-            let got = triangle_box_overlap(Vec3::ZERO, half, &tri);
+            let got = triangle_box_overlap(center, half, &tri);
             assert_eq!(
                 got,
-                overlap_with_full_products(Vec3::ZERO, half, &tri),
-                "{tri:?}"
+                overlap_with_full_products(center, half, &tri),
+                "{tri:?} around {center}"
             );
             overlaps += usize::from(got);
-            by_edges += usize::from(!got && faces_and_plane_overlap(half, &tri));
+            let v = tri.map(|p| p - center);
+            by_edges += usize::from(!got && faces_and_plane_overlap(half, &v));
         }
         // Both answers occur often, and many separations are found by an edge axis alone.
         assert!(
