@@ -65,9 +65,15 @@ struct Builder<'a> {
     params: OctreeParams,
     nodes: Vec<Node>,
     /// Per node: its primitives while it is a leaf (`None` once it is split).
-    leaves: Vec<Option<Leaf>>,
-    /// Leaves worth splitting, best first: (priority bits, node).
-    queue: BinaryHeap<(u32, Reverse<u32>)>,
+    leaves: Vec<Option<Refs>>,
+    /// The leaves in the queue, by slot; a slot is reused once its leaf leaves the queue.
+    queued: Vec<Queued>,
+    free: Vec<u32>,
+    /// Leaves worth splitting, best first: (priority bits, node, slot in `queued`). No two
+    /// entries have the same node, so the slot never decides the order.
+    queue: BinaryHeap<(u32, Reverse<u32>, u32)>,
+    /// The deepest leaf so far.
+    depth: u32,
     /// Bytes of the tree as it stands (8 per node, 4 per leaf entry), and the most it may take.
     bytes: usize,
     /// Scratch for [`Builder::split`]: which children each primitive touches.
@@ -75,12 +81,12 @@ struct Builder<'a> {
     budget: usize,
 }
 
-/// A leaf of the tree being built: its cell and depth, its primitives, and, when splitting it
-/// would pay, its children's primitive lists.
-struct Leaf {
+/// A leaf of the tree being built that is queued to be split: its cell and depth and, once
+/// appraised, its children's primitive lists. The other leaves keep only their primitives, so a
+/// build touches 24 bytes per node for them (a fifth of the nodes are queued on SPD's mount).
+struct Queued {
     cell: Aabb,
     depth: u32,
-    refs: Refs,
     children: Option<Box<Children>>,
 }
 
@@ -113,8 +119,8 @@ impl Refs {
     }
 }
 
-/// The primitive lists of a cell's eight children, in one allocation (boxed in [`Leaf`], which
-/// every cell of the tree being built has, so it stays small): child `c`'s are
+/// The primitive lists of a cell's eight children, in one allocation (boxed in [`Queued`], so
+/// that stays small): child `c`'s are
 /// `refs[start(c)..ends[c]]`, where `start(0)` is 0 and `start(c)` is `ends[c − 1]`.
 struct Children {
     refs: Rc<[u32]>,
@@ -173,14 +179,17 @@ impl Octree {
             params,
             nodes: Vec::with_capacity(most_nodes(budget)),
             leaves: Vec::with_capacity(most_nodes(budget)),
+            queued: Vec::new(),
+            free: Vec::new(),
             queue: BinaryHeap::new(),
+            depth: 0,
             bytes: 0,
             masks: Vec::new(),
             budget,
         };
         b.add_leaf(root, 0, Refs::all(filed));
-        while let Some((_, Reverse(node))) = b.queue.pop() {
-            if !b.step(node as usize) {
+        while let Some((_, Reverse(node), slot)) = b.queue.pop() {
+            if !b.step(node as usize, slot as usize) {
                 break;
             }
         }
@@ -322,70 +331,75 @@ impl Builder<'_> {
         let n = refs.len();
         self.bytes += NODE_BYTES + ENTRY_BYTES * n;
         self.nodes.push(Node { first: 0, count: 0 });
+        self.leaves.push(Some(refs));
+        self.depth = self.depth.max(depth);
         if n > self.params.max_leaf_triangles as usize && depth < self.params.max_depth {
             // Every primitive lands in at least one child (the grown children cover the grown
             // cell), so no split gains more than `n − CELL_COST − n/4` or adds fewer bytes than
             // its eight nodes.
             let best = priority(split_gain(n, n), depth, 8 * NODE_BYTES);
-            self.queue.push((best.to_bits(), Reverse(node as u32)));
+            let queued = Queued {
+                cell,
+                depth,
+                children: None,
+            };
+            let slot = match self.free.pop() {
+                Some(slot) => {
+                    self.queued[slot as usize] = queued;
+                    slot
+                }
+                None => {
+                    self.queued.push(queued);
+                    (self.queued.len() - 1) as u32
+                }
+            };
+            self.queue
+                .push((best.to_bits(), Reverse(node as u32), slot));
         }
-        self.leaves.push(Some(Leaf {
-            cell,
-            depth,
-            refs,
-            children: None,
-        }));
     }
 
     /// Takes the best queued leaf a step further: a leaf not yet appraised is appraised and
     /// queued again at its true priority (or stays a leaf if splitting would not pay); an
     /// appraised one is split. Returns false when that split would pass the budget: the build
     /// ends there.
-    fn step(&mut self, node: usize) -> bool {
-        let Some(leaf) = self.leaves[node].as_ref() else {
+    fn step(&mut self, node: usize, slot: usize) -> bool {
+        let Some(refs) = self.leaves[node].as_ref() else {
             return true;
         };
-        if leaf.children.is_some() {
-            return self.split_if_it_fits(node);
+        let queued = &self.queued[slot];
+        if queued.children.is_some() {
+            return self.split_if_it_fits(node, slot);
         }
-        let (cell, depth, n) = (leaf.cell, leaf.depth, leaf.refs.len());
+        let (cell, depth, n) = (queued.cell, queued.depth, refs.len());
         let children = self.split(node, &cell);
         let total = children.total();
         let gain = split_gain(n, total);
         if gain > 0.0 {
             let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
             let p = priority(gain, depth, added);
-            self.queue.push((p.to_bits(), Reverse(node as u32)));
-            if let Some(leaf) = self.leaves[node].as_mut() {
-                leaf.children = Some(Box::new(children));
-            }
+            self.queue
+                .push((p.to_bits(), Reverse(node as u32), slot as u32));
+            self.queued[slot].children = Some(Box::new(children));
+        } else {
+            self.free.push(slot as u32);
         }
         true
     }
 
     /// Splits appraised leaf `node` into eight children; false if the tree would pass its
     /// budget.
-    fn split_if_it_fits(&mut self, node: usize) -> bool {
-        let Some(Leaf {
-            cell,
-            depth,
-            refs,
-            children: Some(children),
-        }) = self.leaves[node].take()
-        else {
+    fn split_if_it_fits(&mut self, node: usize, slot: usize) -> bool {
+        let Some(children) = self.queued[slot].children.take() else {
             return true;
         };
+        let (cell, depth) = (self.queued[slot].cell, self.queued[slot].depth);
+        let n = self.leaves[node].as_ref().map_or(0, Refs::len);
         let total = children.total();
-        let n = refs.len();
         if self.bytes + 8 * NODE_BYTES + ENTRY_BYTES * total > self.budget + ENTRY_BYTES * n {
-            self.leaves[node] = Some(Leaf {
-                cell,
-                depth,
-                refs,
-                children: None,
-            });
             return false;
         }
+        self.leaves[node] = None;
+        self.free.push(slot as u32);
         self.bytes -= ENTRY_BYTES * n;
         self.nodes[node] = Node {
             first: self.nodes.len() as u32,
@@ -402,18 +416,20 @@ impl Builder<'_> {
     fn finish(self) -> (Vec<Node>, Vec<u32>, OctreeStats) {
         let mut nodes = self.nodes;
         let mut indices = Vec::with_capacity((self.bytes - NODE_BYTES * nodes.len()) / ENTRY_BYTES);
-        let mut stats = OctreeStats::default();
-        for (node, leaf) in nodes.iter_mut().zip(self.leaves) {
-            let Some(leaf) = leaf else { continue };
-            let count = leaf.refs.len() as u32;
+        let mut stats = OctreeStats {
+            depth: self.depth,
+            ..OctreeStats::default()
+        };
+        for (node, refs) in nodes.iter_mut().zip(self.leaves) {
+            let Some(refs) = refs else { continue };
+            let count = refs.len() as u32;
             *node = Node {
                 first: indices.len() as u32,
                 count,
             };
-            indices.extend_from_slice(leaf.refs.get());
+            indices.extend_from_slice(refs.get());
             stats.leaves += 1;
             stats.empty_leaves += u32::from(count == 0);
-            stats.depth = stats.depth.max(leaf.depth);
             stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
         }
         // Each interior node notes which of its children are not empty leaves.
@@ -442,7 +458,7 @@ impl Builder<'_> {
         let cells = ChildCells::new(cell, self.filing.margin);
         let mut masks = core::mem::take(&mut self.masks);
         masks.clear();
-        let refs = self.leaves[node].as_ref().map_or(&[][..], |l| l.refs.get());
+        let refs = self.leaves[node].as_ref().map_or(&[][..], Refs::get);
         let mut ends = [0u32; 8];
         for &t in refs {
             let mask = self.filing.children_touched(&cells, t as usize);
