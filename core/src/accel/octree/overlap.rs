@@ -54,11 +54,10 @@ pub(super) fn triangle_box_overlap(center: Vec3, half: Vec3, tri: &[Vec3; 3]) ->
         return false;
     }
     let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    // The triangle's plane.
-    let n = Vec3::from(e[0]).cross(Vec3::from(e[1]));
-    let d = n.dot(Vec3::from(v[0]));
-    let r = half.dot(n.abs());
-    if d.abs() > r {
+    // The triangle's plane: `Vec3::cross` and `Vec3::dot` lane by lane, summed in their order.
+    let n = e[0].yzx() * e[1].zxy() - e[1].yzx() * e[0].zxy();
+    let sum = |p: Vec3A| p.x + p.y + p.z;
+    if sum(n * v[0]).abs() > sum(h * n.abs()) {
         return false;
     }
     // Cross products of the box axes with an edge: axis `a` crossed with the edge has a zero in
