@@ -83,7 +83,7 @@ struct Builder<'a> {
 
 /// A leaf of the tree being built that is queued to be split: its cell and depth and, once
 /// appraised, its children's primitive lists. The other leaves keep only their primitives, so a
-/// build touches 24 bytes per node for them (a fifth of the nodes are queued on SPD's mount).
+/// build touches 24 bytes per node for them (a third of the nodes are queued on SPD's mount).
 struct Queued {
     cell: Aabb,
     depth: u32,
