@@ -4,7 +4,8 @@
 //!
 //! Primitives are the scene's triangles (indices `0..T`) followed by its bounded solids (indices
 //! `T..`): a triangle is filed by the exact triangle/box test, a sphere standing alone by where
-//! its surface is, another solid by its reject box (where its test can report a hit: its world
+//! its surface is, a cylinder or cone standing alone by how near its axis passes (and within its
+//! reject box), another solid by its reject box (where its test can report a hit: its world
 //! box and the test's rounding; `SolidExtent::reach`). A primitive whose box lies on one
 //! side of a centre plane, touching it or in it, is filed on that side only (exact comparisons,
 //! no margin): its points on the plane belong to that side's closed cells as well, and the walk

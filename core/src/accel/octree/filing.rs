@@ -12,14 +12,15 @@
 //!    vertex is placed in the grown halves of each axis (four comparisons of three lanes per
 //!    vertex, however many candidates there are).
 //! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
-//!    sphere-surface test (lone spheres) or the box test (other solids).
+//!    sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the box
+//!    test (other solids).
 //!
 //! A triangle touches a child exactly when the child's grown box (its sides included) holds a
 //! vertex or the separating-axis test finds no separating axis: the same answer as testing each
 //! candidate child on its own, which the tests below check.
 
 use super::child_box;
-use super::overlap::{sphere_surface_box_overlap, triangle_box_overlap};
+use super::overlap::{segment_box_overlap, sphere_surface_box_overlap, triangle_box_overlap};
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
@@ -165,20 +166,28 @@ impl Filing<'_> {
         mask
     }
 
-    /// True if solid `j` touches the grown box `lo..hi`: a lone sphere where its surface is,
-    /// another solid by its reject box.
+    /// True if solid `j` touches the grown box `lo..hi`: a lone sphere where its surface is, a
+    /// lone cylinder or cone near its axis and within its reject box, another solid by its reject
+    /// box.
     fn solid_touches(&self, j: usize, lo: Vec3, hi: Vec3) -> bool {
-        if let Some(&SolidExtent::Sphere {
-            center,
-            radius,
-            margin,
-            ..
-        }) = self.solids.get(j)
-        {
-            return sphere_surface_box_overlap(center, radius, margin, lo, hi);
-        }
         let b = &self.reach[j];
-        b.min.cmple(hi).all() && b.max.cmpge(lo).all()
+        let in_reach = b.min.cmple(hi).all() && b.max.cmpge(lo).all();
+        match self.solids.get(j) {
+            Some(&SolidExtent::Sphere {
+                center,
+                radius,
+                margin,
+                ..
+            }) => sphere_surface_box_overlap(center, radius, margin, lo, hi),
+            Some(&SolidExtent::Cone {
+                a,
+                b,
+                radius,
+                margin,
+                ..
+            }) => in_reach && segment_box_overlap(a, b, radius + margin, lo, hi),
+            _ => in_reach,
+        }
     }
 }
 
@@ -286,16 +295,23 @@ mod tests {
                     min: center - Vec3::splat(radius),
                     max: center + Vec3::splat(radius),
                 };
-                if i % 2 == 0 {
-                    let margin = 1e-4;
-                    SolidExtent::Sphere {
+                let margin = 1e-4;
+                match i % 3 {
+                    0 => SolidExtent::Sphere {
                         bounds,
                         center,
                         radius,
                         margin,
-                    }
-                } else {
-                    SolidExtent::Box(bounds)
+                    },
+                    // A cylinder along the box's diagonal.
+                    1 => SolidExtent::Cone {
+                        bounds,
+                        a: bounds.min + Vec3::splat(radius * 0.3),
+                        b: bounds.max - Vec3::splat(radius * 0.3),
+                        radius: radius * 0.3,
+                        margin,
+                    },
+                    _ => SolidExtent::Box(bounds),
                 }
             })
             .collect();

@@ -35,6 +35,31 @@ pub(super) fn sphere_surface_box_overlap(
     near <= outer * outer && far >= inner * inner
 }
 
+/// True if the segment `a`–`b` comes within `reach` of the box `lo..hi`: it crosses the box
+/// grown by `reach` on every side (which holds every point within `reach` of the box, and the
+/// corners' neighbourhoods besides), by the slab test in `f64`, whose rounding is far below any
+/// reach a caller gives. A cylinder or cone lies within its larger radius of its axis, so a box
+/// its axis passes farther from holds no point of it.
+pub(super) fn segment_box_overlap(a: Vec3, b: Vec3, reach: f32, lo: Vec3, hi: Vec3) -> bool {
+    let (mut enter, mut leave) = (0.0f64, 1.0f64);
+    for axis in 0..3 {
+        let (from, to) = (f64::from(a[axis]), f64::from(b[axis]));
+        let grown_lo = f64::from(lo[axis]) - f64::from(reach);
+        let grown_hi = f64::from(hi[axis]) + f64::from(reach);
+        let d = to - from;
+        if d == 0.0 {
+            if from < grown_lo || from > grown_hi {
+                return false;
+            }
+            continue;
+        }
+        let (t0, t1) = ((grown_lo - from) / d, (grown_hi - from) / d);
+        enter = enter.max(t0.min(t1));
+        leave = leave.min(t0.max(t1));
+    }
+    enter <= leave
+}
+
 /// True unless one of the 13 separating axes (3 box faces, the triangle's plane, 9 edge cross
 /// products) separates the triangle from the box `centre ± half`. Touching counts as overlap.
 ///
@@ -160,6 +185,56 @@ mod tests {
             kept > 500 && dropped > 500,
             "{kept} kept, {dropped} dropped"
         );
+    }
+
+    #[test]
+    fn every_box_that_holds_a_point_of_a_cone_is_kept() {
+        // Cones from `a` to `b`, radius 0.4 at `a` and 0.1 at `b`, at several slants; points on
+        // their sides and caps.
+        let mut state = xorshift(0x1234_5679);
+        let mut next = move || state() as f32 / u32::MAX as f32;
+        let (mut kept, mut dropped) = (0, 0);
+        for slant in 0..8 {
+            let a = Vec3::new(-0.9, -0.3 * slant as f32 / 8.0, 0.2);
+            let b = Vec3::new(0.8, 0.1 * slant as f32, -0.4 + 0.1 * slant as f32);
+            let axis = (b - a).normalize();
+            let u = axis.any_orthonormal_vector();
+            let v = axis.cross(u);
+            let points: alloc::vec::Vec<Vec3> = (0..3000)
+                .map(|_| {
+                    let (s, angle, cap) = (next(), next() * core::f32::consts::TAU, next());
+                    let r = (0.4 + (0.1 - 0.4) * s) * if cap < 0.2 { next() } else { 1.0 };
+                    a + (b - a) * s + (u * libm::cosf(angle) + v * libm::sinf(angle)) * r
+                })
+                .collect();
+            for _ in 0..400 {
+                let c = Vec3::new(next(), next(), next()) * 3.0 - Vec3::splat(1.5);
+                let half = Vec3::new(next(), next(), next()) * 0.2 + Vec3::splat(0.01);
+                let (lo, hi) = (c - half, c + half);
+                let holds = points
+                    .iter()
+                    .any(|p| p.cmpge(lo).all() && p.cmple(hi).all());
+                let filed = segment_box_overlap(a, b, 0.4 + 1e-4, lo, hi);
+                assert!(
+                    filed || !holds,
+                    "box {lo:?}..{hi:?} holds a point of cone {slant}"
+                );
+                kept += usize::from(filed);
+                dropped += usize::from(!filed);
+            }
+        }
+        assert!(
+            kept > 300 && dropped > 1000,
+            "{kept} kept, {dropped} dropped"
+        );
+        // A segment along an axis (touching the grown box, then missing it), and one that is a
+        // point.
+        let (lo, hi) = (Vec3::ZERO, Vec3::ONE);
+        let along = |y: f32| Vec3::new(0.5, y, 1.25);
+        assert!(segment_box_overlap(along(-1.0), along(2.0), 0.25, lo, hi));
+        assert!(!segment_box_overlap(along(-1.0), along(2.0), 0.125, lo, hi));
+        assert!(segment_box_overlap(along(0.5), along(0.5), 0.25, lo, hi));
+        assert!(!segment_box_overlap(along(-1.0), along(-0.5), 0.3, lo, hi));
     }
 
     /// The separating-axis test with every edge axis built as a full cross product and every

@@ -1,5 +1,6 @@
 //! [`SolidExtent`]: where in the world a scene object can be hit, as the octree build files it:
-//! nowhere bounded (a plane), within a box, or on a sphere's surface; and the reject box, how far
+//! nowhere bounded (a plane), within a box, on a sphere's surface, or near a cylinder's axis; and
+//! the reject box, how far
 //! beyond its world box an object's test can report a hit.
 
 use crate::math::aabb::Aabb;
@@ -28,6 +29,22 @@ pub enum SolidExtent {
         /// bound the surface its test sees.
         margin: f32,
     },
+    /// A cylinder or cone standing alone: filed in every cell that comes within `radius` plus
+    /// `margin` of its axis, the segment `a`–`b` (every point of the solid lies within its
+    /// larger radius, `radius`, of the axis). A cell beside a slanted cylinder, which its world
+    /// box reaches, holds no point of it.
+    Cone {
+        /// World box.
+        bounds: Aabb,
+        /// The centre of its bottom cap, world space.
+        a: Vec3,
+        /// The centre of its top cap, world space.
+        b: Vec3,
+        /// Its larger radius, world space.
+        radius: f32,
+        /// How far beyond that a cell still holds it: as [`SolidExtent::Sphere`]'s.
+        margin: f32,
+    },
 }
 
 impl SolidExtent {
@@ -35,7 +52,9 @@ impl SolidExtent {
     pub fn bounds(&self) -> Option<Aabb> {
         match *self {
             SolidExtent::Unbounded => None,
-            SolidExtent::Box(b) | SolidExtent::Sphere { bounds: b, .. } => Some(b),
+            SolidExtent::Box(b)
+            | SolidExtent::Sphere { bounds: b, .. }
+            | SolidExtent::Cone { bounds: b, .. } => Some(b),
         }
     }
 

@@ -95,10 +95,10 @@ pub struct Solids {
     mesh_triangles: Vec<[Vec3; 3]>,
 }
 
-/// The world centre and radius of a sphere placed by `placement`, if the placement keeps it a
-/// sphere: its linear part a rotation times one scale, to a millionth (the rest is far inside
-/// [`REJECT_MARGIN`](super::extent::REJECT_MARGIN)). `None` for an ellipsoid.
-fn world_sphere(radius: f32, placement: &Placement) -> Option<(Vec3, f32)> {
+/// The scale of `placement` if its linear part is a rotation times one scale, to a millionth
+/// (the rest is far inside [`REJECT_MARGIN`](super::extent::REJECT_MARGIN)); `None` for another
+/// linear map. A sphere or a cylinder placed by it keeps its shape.
+fn similarity_scale(placement: &Placement) -> Option<f64> {
     let m = placement.to_world.matrix;
     let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.to_array().map(f64::from));
     let dot = |a: &[f64; 3], b: &[f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -109,12 +109,30 @@ fn world_sphere(radius: f32, placement: &Placement) -> Option<(Vec3, f32)> {
         && [(0, 1), (0, 2), (1, 2)]
             .iter()
             .all(|&(i, j)| dot(&cols[i], &cols[j]).abs() <= tolerance * longest);
-    similar.then(|| {
-        (
-            placement.to_world.translation,
-            (f64::from(radius) * longest) as f32,
-        )
-    })
+    similar.then_some(longest)
+}
+
+/// The world centre and radius of a sphere placed by `placement`, if the placement keeps it a
+/// sphere ([`similarity_scale`]); `None` for an ellipsoid.
+fn world_sphere(radius: f32, placement: &Placement) -> Option<(Vec3, f32)> {
+    let scale = similarity_scale(placement)?;
+    Some((
+        placement.to_world.translation,
+        (f64::from(radius) * scale) as f32,
+    ))
+}
+
+/// The world centres of the caps and the larger radius of the cylinder or cone with radii `r0`,
+/// `r1` and height `h` (its axis is the object's y axis, its caps at `y = ±h/2`) placed by
+/// `placement`, if the placement keeps its section round ([`similarity_scale`]).
+fn world_cone(r0: f32, r1: f32, h: f32, placement: &Placement) -> Option<(Vec3, Vec3, f32)> {
+    let scale = similarity_scale(placement)?;
+    let cap = |y: f32| placement.to_world.point(Vec3::new(0.0, y, 0.0));
+    Some((
+        cap(-0.5 * h),
+        cap(0.5 * h),
+        (f64::from(r0.max(r1)) * scale) as f32,
+    ))
 }
 
 fn finite_box(b: &Aabb) -> bool {
@@ -247,8 +265,8 @@ impl Solids {
         &self.bounds
     }
 
-    /// How the octree files each object: a lone sphere by its surface, other bounded objects by
-    /// their world box.
+    /// How the octree files each object: a lone sphere by its surface, a lone cylinder or cone
+    /// by its axis, other bounded objects by their world box.
     pub fn extents(&self) -> Vec<SolidExtent> {
         self.objects
             .iter()
@@ -257,23 +275,40 @@ impl Solids {
                 let Some(b) = *b else {
                     return SolidExtent::Unbounded;
                 };
-                let sphere = match self.nodes[root as usize] {
-                    PreparedNode::Leaf {
-                        shape: Shape::Sphere { radius },
-                        placement,
-                        ..
-                    } => world_sphere(radius, &placement),
+                let margin = reject_margin(&b);
+                let PreparedNode::Leaf {
+                    shape, placement, ..
+                } = self.nodes[root as usize]
+                else {
+                    return SolidExtent::Box(b);
+                };
+                let extent = match shape {
+                    Shape::Sphere { radius } => {
+                        world_sphere(radius, &placement).map(|(center, radius)| {
+                            SolidExtent::Sphere {
+                                bounds: b,
+                                center,
+                                radius,
+                                margin,
+                            }
+                        })
+                    }
+                    Shape::Cylinder {
+                        bottom_radius,
+                        top_radius,
+                        height,
+                    } => world_cone(bottom_radius, top_radius, height, &placement).map(
+                        |(a, c, radius)| SolidExtent::Cone {
+                            bounds: b,
+                            a,
+                            b: c,
+                            radius,
+                            margin,
+                        },
+                    ),
                     _ => None,
                 };
-                match sphere {
-                    Some((center, radius)) => SolidExtent::Sphere {
-                        bounds: b,
-                        center,
-                        radius,
-                        margin: reject_margin(&b),
-                    },
-                    None => SolidExtent::Box(b),
-                }
+                extent.unwrap_or(SolidExtent::Box(b))
             })
             .collect()
     }

@@ -67,19 +67,16 @@ fn brute_force(solids: &Solids, ray: &Ray, scratch: &mut SpanScratch) -> Option<
     best
 }
 
-#[test]
-fn spheres_filed_by_their_surface_are_found_as_testing_every_sphere_finds_them() {
-    let mut rng = Rng::new(5);
-    let nodes = spheres(&mut rng);
+/// One object per node, the tree over their extents, and the tree over their boxes alone; `by`
+/// says which extents file an object by more than its box: all but the last node's must.
+fn trees(nodes: &[SolidNode], by: fn(&SolidExtent) -> bool) -> (Solids, Octree) {
     let objects: Vec<u32> = (0..nodes.len() as u32).collect();
-    let solids = Solids::new(&nodes, &objects, &[]);
+    let solids = Solids::new(nodes, &objects, &[]);
     let extents = solids.extents();
-    let filed_by_surface = extents
-        .iter()
-        .filter(|e| matches!(e, SolidExtent::Sphere { .. }))
-        .count();
-    assert_eq!(filed_by_surface, nodes.len() - 1, "all but the ellipsoid");
+    let filed_by_shape = extents.iter().filter(|e| by(e)).count();
+    assert_eq!(filed_by_shape, nodes.len() - 1, "all but the last");
     assert!(matches!(extents.last(), Some(SolidExtent::Box(_))));
+
     let params = OctreeParams::default();
     let tree = Octree::build_mixed(&[], &extents, &params);
     let boxes = Octree::build_mixed(
@@ -92,20 +89,22 @@ fn spheres_filed_by_their_surface_are_found_as_testing_every_sphere_finds_them()
     );
     assert!(
         tree.stats().references < boxes.stats().references,
-        "filing by surface files fewer references: {:?} against {:?}",
+        "filing by shape files fewer references: {:?} against {:?}",
         tree.stats(),
         boxes.stats()
     );
+    (solids, tree)
+}
+
+/// Rays aimed near `targets` find through `tree` the closest hit and the any-hit answer that
+/// testing every object finds; returns how many rays hit something.
+fn as_brute_force_finds(solids: &Solids, tree: &Octree, targets: &[Vec3], rng: &mut Rng) -> usize {
     let mut scratch = SpanScratch::default();
     let mut hits = 0;
     for i in 0..50_000 {
-        let target = match i % 3 {
-            0 => Vec3::ZERO,
-            1 => Vec3::new(-3.0, 0.0, 0.0),
-            _ => Vec3::new(3.0, 0.0, 0.0),
-        };
-        // Origins far out (a camera a thousand times the spheres' size away too), near the
-        // centres (inside the spheres) and on the spiral.
+        let target = targets[i % targets.len()];
+        // Origins far out (a camera a thousand times the objects' size away too), near the
+        // targets (inside the objects) and near the origin.
         let origin = match i % 5 {
             0 => target + rng.direction() * 8.0,
             1 => target + rng.direction() * rng.next_f32() * 0.5,
@@ -115,7 +114,7 @@ fn spheres_filed_by_their_surface_are_found_as_testing_every_sphere_finds_them()
         };
         let aim = target + rng.direction() * rng.next_f32() * 1.5;
         let ray = Ray::new(origin, aim - origin);
-        let want = brute_force(&solids, &ray, &mut scratch);
+        let want = brute_force(solids, &ray, &mut scratch);
         let got = tree.closest_hit_with(
             &ray,
             f32::INFINITY,
@@ -139,5 +138,85 @@ fn spheres_filed_by_their_surface_are_found_as_testing_every_sphere_finds_them()
         assert_eq!(got_any, want_any, "ray {ray:?} t_max {t_max}");
         hits += usize::from(want.is_some());
     }
+    hits
+}
+
+#[test]
+fn spheres_filed_by_their_surface_are_found_as_testing_every_sphere_finds_them() {
+    let mut rng = Rng::new(5);
+    let (solids, tree) = trees(&spheres(&mut rng), |e| {
+        matches!(e, SolidExtent::Sphere { .. })
+    });
+    let targets = [
+        Vec3::ZERO,
+        Vec3::new(-3.0, 0.0, 0.0),
+        Vec3::new(3.0, 0.0, 0.0),
+    ];
+    let hits = as_brute_force_finds(&solids, &tree, &targets, &mut rng);
     assert!(hits > 25_000, "most rays hit something: {hits}");
+}
+
+fn cylinder(r0: f32, r1: f32, h: f32, center: Vec3, transform: Transform) -> SolidNode {
+    SolidNode::Leaf {
+        shape: Shape::Cylinder {
+            bottom_radius: r0,
+            top_radius: r1,
+            height: h,
+        },
+        transform: Transform::translate(center).after(&transform),
+        shader: 0,
+    }
+}
+
+/// Rings of thin cylinders joining points on circles at slants (as SPD's rings), cones to a
+/// point, tiny ones, long ones across the scene, rotated and scaled ones, and a squashed one.
+fn cylinders(rng: &mut Rng) -> Vec<SolidNode> {
+    let mut nodes = Vec::new();
+    for ring in 0..6 {
+        let tilt = Vec3::new(ring as f32 * 23.0, ring as f32 * 41.0, 0.0);
+        let turn = Transform::rotate_xyz_deg(tilt);
+        let at = Vec3::new(ring as f32 * 0.7 - 1.8, 0.0, 0.0);
+        for k in 0..24 {
+            let a = k as f32 * core::f32::consts::TAU / 24.0;
+            // A cylinder along the ring's tangent at angle `a`: its y axis turned to the
+            // tangent, then the ring's tilt.
+            let along = Transform::rotate_xyz_deg(Vec3::new(0.0, 0.0, a.to_degrees()));
+            let place = turn
+                .after(&Transform::translate(Vec3::new(a.cos(), a.sin(), 0.0)))
+                .after(&along);
+            nodes.push(cylinder(0.05, 0.05, 0.27, at, place));
+        }
+    }
+    for _ in 0..200 {
+        let angles = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 360.0;
+        let c = rng.direction() * rng.next_f32() * 2.5;
+        let (r0, r1) = (0.002 + 0.1 * rng.next_f32(), 0.1 * rng.next_f32());
+        let h = 0.01 + 0.6 * rng.next_f32();
+        nodes.push(cylinder(r0, r1, h, c, Transform::rotate_xyz_deg(angles)));
+    }
+    let long = Transform::rotate_xyz_deg(Vec3::new(35.0, 10.0, 55.0));
+    nodes.push(cylinder(0.02, 0.02, 7.0, Vec3::ZERO, long));
+    nodes.push(cylinder(0.3, 0.0, 1.2, Vec3::new(0.0, 2.0, 0.5), long));
+    let turned = Transform::rotate_xyz_deg(Vec3::new(30.0, 45.0, 60.0))
+        .after(&Transform::scale(Vec3::splat(1.7)));
+    nodes.push(cylinder(0.1, 0.2, 0.8, Vec3::new(0.0, -2.0, 0.0), turned));
+    let squashed = Transform::rotate_xyz_deg(Vec3::new(0.0, 0.0, 45.0))
+        .after(&Transform::scale(Vec3::new(2.0, 0.5, 1.0)));
+    nodes.push(cylinder(0.2, 0.2, 1.0, Vec3::new(2.0, -2.0, 0.0), squashed));
+    nodes
+}
+
+#[test]
+fn cylinders_filed_by_their_axis_are_found_as_testing_every_cylinder_finds_them() {
+    let mut rng = Rng::new(9);
+    let (solids, tree) = trees(&cylinders(&mut rng), |e| {
+        matches!(e, SolidExtent::Cone { .. })
+    });
+    let targets = [
+        Vec3::ZERO,
+        Vec3::new(-1.8, 0.0, 0.0),
+        Vec3::new(1.0, 0.5, 0.0),
+    ];
+    let hits = as_brute_force_finds(&solids, &tree, &targets, &mut rng);
+    assert!(hits > 10_000, "many rays hit something: {hits}");
 }
