@@ -22,14 +22,16 @@
 //! it was filed in.
 //!
 //! Like the octree, the buffer relies on the primitive tests reporting hits on the primitive
-//! (or its box, for solids): the triangle test's known `f32` exception for rays grazing a face
-//! from far away (see [`crate::accel::octree`]) applies here too.
+//! (or within its reach box, for solids, and within its larger radius and margin of its axis,
+//! for a lone cylinder or cone): the triangle test's known `f32` exception for rays grazing a
+//! face from far away (see [`crate::accel::octree`]) applies here too.
 //!
 //! Where a cell lists more than [`CELL_LIMIT`] primitives the query says [`Candidates::Walk`].
 //! A light gets no buffer where over a third of its occupied cells are such cells (primitives
 //! crowd around it, and the walk is as short as a list), or where the buffer would outgrow its
 //! budget even with coarse cells.
 
+use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
@@ -166,8 +168,10 @@ pub struct LightBuffer {
 }
 
 impl LightBuffer {
-    /// Files `triangles` (indices `0..`) and the bounded solids' boxes (indices from
-    /// `triangles.len()`) around the light at `light`, for queries from points within `bounds`
+    /// Files `triangles` (indices `0..`) and the bounded solids (indices from
+    /// `triangles.len()`: each by its reach box, [`SolidExtent::reach`], a slanted lone cylinder
+    /// or cone by the hull of the cubes around its caps' centres grown by its radius) around the
+    /// light at `light`, for queries from points within `bounds`
     /// (the box around every bounded primitive) or twice as far. `None` where there is nothing to
     /// file, a coordinate overflows, most occupied cells would be over [`CELL_LIMIT`], or the
     /// buffer would exceed its budget even at a coarse resolution.
@@ -175,7 +179,7 @@ impl LightBuffer {
         light: Vec3,
         bounds: &Aabb,
         triangles: &[[Vec3; 3]],
-        solids: &[Option<Aabb>],
+        solids: &[SolidExtent],
     ) -> Option<LightBuffer> {
         if bounds.is_empty() {
             return None;
@@ -342,10 +346,11 @@ fn each_cell(
     }
 }
 
-/// The primitives a buffer files: triangles by their corners, solids by their boxes.
+/// The primitives a buffer files: triangles by their corners, solids by their reach boxes'
+/// corners, a slanted lone cylinder or cone by its axis' hull ([`axis_hull`]).
 struct Shapes<'a> {
     triangles: &'a [[Vec3; 3]],
-    solids: &'a [Option<Aabb>],
+    solids: &'a [SolidExtent],
 }
 
 impl Shapes<'_> {
@@ -356,23 +361,61 @@ impl Shapes<'_> {
     /// Every primitive's footprints on the six faces of the light at `light`.
     fn footprints(&self, light: Vec3, guard: f32) -> [Vec<(u32, Footprint)>; 6] {
         let mut faces: [Vec<(u32, Footprint)>; 6] = Default::default();
-        let mut file = |i: usize, points: &[Vec3]| {
+        let mut file = |i: usize, print: &dyn Fn(usize) -> Option<Footprint>| {
             for (f, prints) in faces.iter_mut().enumerate() {
-                if let Some(print) = footprint(points, light, f, guard) {
+                if let Some(print) = print(f) {
                     prints.push((i as u32, print));
                 }
             }
         };
         for (i, t) in self.triangles.iter().enumerate() {
-            file(i, t);
+            file(i, &|f| footprint(t, light, f, guard));
         }
-        for (j, b) in self.solids.iter().enumerate() {
-            if let Some(b) = b {
-                file(self.triangles.len() + j, &corners(b));
+        for (j, solid) in self.solids.iter().enumerate() {
+            let i = self.triangles.len() + j;
+            if let Some(hull) = axis_hull(solid) {
+                file(i, &|f| footprint(&hull, light, f, guard));
+            } else if let Some(reach) = solid.reach() {
+                file(i, &|f| footprint(&corners(&reach), light, f, guard));
             }
         }
         faces
     }
+}
+
+/// For a lone cylinder or cone whose axis is slanted, points whose hull holds it: the corners of
+/// the cubes of half side its larger radius plus its margin around its caps' centres (every
+/// point of it lies within its radius of a point of its axis). `None` for another solid, and
+/// for an axis along a coordinate axis, whose reach box is as tight.
+fn axis_hull(solid: &SolidExtent) -> Option<[Vec3; 16]> {
+    let SolidExtent::Cone {
+        a,
+        b,
+        radius,
+        margin,
+        ..
+    } = *solid
+    else {
+        return None;
+    };
+    let r = Vec3::splat(radius + margin);
+    if (b - a).abs().cmpgt(r).bitmask().count_ones() < 2 {
+        return None;
+    }
+    let cube = |c: Vec3| {
+        corners(&Aabb {
+            min: c - r,
+            max: c + r,
+        })
+    };
+    let (at_a, at_b) = (cube(a), cube(b));
+    Some(core::array::from_fn(|k| {
+        if k < 8 {
+            at_a[k]
+        } else {
+            at_b[k - 8]
+        }
+    }))
 }
 
 /// The eight corners of a box.
@@ -505,6 +548,7 @@ fn count(faces: &mut [Option<Grid>; 6], footprints: &[Vec<(u32, Footprint)>; 6])
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::solid::extent::reject_margin;
     use crate::geom::triangle::{intersect, RayFrame};
     use crate::scene::mesh::Rng;
 
@@ -558,6 +602,78 @@ mod tests {
     }
 
     /// The entries a listed query tests.
+    /// Thin cones and cylinders at random slants around the origin (as SPD's rings and trees
+    /// have), as the octree files them; bottom radius `r0`, top `r1` along the axis `a`–`b`.
+    fn cones(rng: &mut Rng, n: usize) -> Vec<(SolidExtent, [Vec3; 2], [f32; 2])> {
+        (0..n)
+            .map(|k| {
+                let a = point(rng, 2.0);
+                let b = a + point(rng, 1.0);
+                let (r0, r1) = (rng.range(0.01, 0.05), if k % 3 == 0 { 0.0 } else { 0.03 });
+                let r = Vec3::splat(r0.max(r1));
+                let bounds = Aabb {
+                    min: a.min(b) - r,
+                    max: a.max(b) + r,
+                };
+                let extent = SolidExtent::Cone {
+                    bounds,
+                    a,
+                    b,
+                    radius: r0.max(r1),
+                    margin: reject_margin(&bounds),
+                };
+                (extent, [a, b], [r0, r1])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn every_cone_is_listed_where_it_blocks() {
+        let mut rng = Rng::new(11);
+        let (mut answered, mut checked, mut listed_cones, mut listed_boxes) = (0, 0, 0, 0);
+        for light in [Vec3::new(0.2, 0.1, 0.0), Vec3::new(6.0, -5.0, 9.0)] {
+            let cones = cones(&mut rng, 60);
+            let solids: Vec<SolidExtent> = cones.iter().map(|c| c.0).collect();
+            let boxes: Vec<SolidExtent> = solids
+                .iter()
+                .map(|e| e.reach().map_or(SolidExtent::Unbounded, SolidExtent::Box))
+                .collect();
+            let bounds = bounds_of(
+                &[],
+                &solids.iter().map(SolidExtent::bounds).collect::<Vec<_>>(),
+            );
+            let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
+            let by_boxes = LightBuffer::build(light, &bounds, &[], &boxes).expect("a buffer");
+            for k in 0..20_000 {
+                // A point on a cone's side or cap, and a shadow ray from just beyond it.
+                let (j, (_, [a, b], [r0, r1])) = (k % cones.len(), cones[k % cones.len()]);
+                let axis = (b - a).normalize();
+                let (u, v) = axis.any_orthonormal_pair();
+                let (t, angle) = (rng.next_f32(), rng.range(0.0, core::f32::consts::TAU));
+                let radius = (r0 + (r1 - r0) * t) * if k % 5 == 0 { rng.next_f32() } else { 1.0 };
+                let on = a + (b - a) * t + (u * libm::cosf(angle) + v * libm::sinf(angle)) * radius;
+                let origin = light + (on - light) * rng.range(1.001, 1.3);
+                let ray = Ray::new(origin, light - origin);
+                if let Some(list) = listed(buffer.candidates(&ray, 1.0)) {
+                    answered += 1;
+                    assert!(
+                        list.contains(&(j as u32)),
+                        "light {light}, ray {ray:?}: cone {j} not listed"
+                    );
+                    listed_cones += list.len();
+                    checked += 1;
+                }
+                listed_boxes += listed(by_boxes.candidates(&ray, 1.0)).map_or(0, |l| l.len());
+            }
+        }
+        assert!(answered > 20_000 && checked > 20_000, "{answered} answered");
+        // Filed by their axes, fewer cones are listed than by their boxes.
+        assert!(
+            listed_cones * 20 < listed_boxes * 19,
+            "{listed_cones} listed, by boxes {listed_boxes}"
+        );
+    }
+
     fn listed(c: Candidates<'_>) -> Option<Vec<u32>> {
         match c {
             Candidates::Walk => None,
@@ -595,7 +711,11 @@ mod tests {
                 })
                 .collect();
             let bounds = bounds_of(&tris, &boxes);
-            let buffer = LightBuffer::build(light, &bounds, &tris, &boxes).expect("a buffer");
+            let solids: Vec<SolidExtent> = boxes
+                .iter()
+                .map(|b| b.map_or(SolidExtent::Unbounded, SolidExtent::Box))
+                .collect();
+            let buffer = LightBuffer::build(light, &bounds, &tris, &solids).expect("a buffer");
             // Through every corner, seen from the light: among them the corners that bound
             // the grids, where only the margins keep a ray's rounded direction inside.
             for (i, v) in tris.iter().enumerate().flat_map(|(i, t)| t.map(|v| (i, v))) {

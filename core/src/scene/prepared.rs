@@ -166,13 +166,19 @@ fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option
     if primitives < LIGHT_BUFFER_MIN || peak > memory {
         return desc.lights.iter().map(|_| None).collect();
     }
-    let boxes: Vec<Option<Aabb>> = filed.extents.iter().map(SolidExtent::reach).collect();
     desc.lights
         .iter()
         .map(|light| {
             let wanted = shadow_ray_matters(&desc.settings, light) && peak <= memory;
             let buffer = wanted
-                .then(|| LightBuffer::build(light.position, &filed.bounds, filed.triangles, &boxes))
+                .then(|| {
+                    LightBuffer::build(
+                        light.position,
+                        &filed.bounds,
+                        filed.triangles,
+                        filed.extents,
+                    )
+                })
                 .flatten();
             memory = memory.saturating_sub(buffer.as_ref().map_or(0, LightBuffer::bytes));
             buffer
