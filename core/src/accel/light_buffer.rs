@@ -361,22 +361,22 @@ impl Shapes<'_> {
     /// Every primitive's footprints on the six faces of the light at `light`.
     fn footprints(&self, light: Vec3, guard: f32) -> [Vec<(u32, Footprint)>; 6] {
         let mut faces: [Vec<(u32, Footprint)>; 6] = Default::default();
-        let mut file = |i: usize, print: &dyn Fn(usize) -> Option<Footprint>| {
+        let mut file = |i: usize, points: &[Vec3]| {
             for (f, prints) in faces.iter_mut().enumerate() {
-                if let Some(print) = print(f) {
+                if let Some(print) = footprint(points, light, f, guard) {
                     prints.push((i as u32, print));
                 }
             }
         };
         for (i, t) in self.triangles.iter().enumerate() {
-            file(i, &|f| footprint(t, light, f, guard));
+            file(i, t);
         }
         for (j, solid) in self.solids.iter().enumerate() {
             let i = self.triangles.len() + j;
             if let Some(hull) = axis_hull(solid) {
-                file(i, &|f| footprint(&hull, light, f, guard));
+                file(i, &hull);
             } else if let Some(reach) = solid.reach() {
-                file(i, &|f| footprint(&corners(&reach), light, f, guard));
+                file(i, &corners(&reach));
             }
         }
         faces

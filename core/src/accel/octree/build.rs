@@ -339,23 +339,27 @@ impl Builder<'_> {
             // cell), so no split gains more than `n − CELL_COST − n/4` or adds fewer bytes than
             // its eight nodes.
             let best = priority(split_gain(n, n), depth, 8 * NODE_BYTES);
-            let queued = Queued {
+            let slot = self.queued_slot(Queued {
                 cell,
                 depth,
                 children: None,
-            };
-            let slot = match self.free.pop() {
-                Some(slot) => {
-                    self.queued[slot as usize] = queued;
-                    slot
-                }
-                None => {
-                    self.queued.push(queued);
-                    (self.queued.len() - 1) as u32
-                }
-            };
+            });
             self.queue
                 .push((best.to_bits(), Reverse(node as u32), slot));
+        }
+    }
+
+    /// Keeps `queued` in a free slot, or a new one, and names it.
+    fn queued_slot(&mut self, queued: Queued) -> u32 {
+        match self.free.pop() {
+            Some(slot) => {
+                self.queued[slot as usize] = queued;
+                slot
+            }
+            None => {
+                self.queued.push(queued);
+                (self.queued.len() - 1) as u32
+            }
         }
     }
 
