@@ -161,6 +161,21 @@ mod tests {
         })
     }
 
+    /// A box centred within `spread` of the origin, of half sizes from 0.01 to `size` + 0.01,
+    /// from the numbers `next` gives (in `0..1`).
+    fn sample_box(next: &mut impl FnMut() -> f32, spread: f32, size: f32) -> (Vec3, Vec3) {
+        let c = (Vec3::new(next(), next(), next()) * 2.0 - Vec3::ONE) * spread;
+        let half = Vec3::new(next(), next(), next()) * size + Vec3::splat(0.01);
+        (c - half, c + half)
+    }
+
+    /// True if the box `lo..hi` holds one of `points`.
+    fn holds_one(points: &[Vec3], lo: Vec3, hi: Vec3) -> bool {
+        points
+            .iter()
+            .any(|p| p.cmpge(lo).all() && p.cmple(hi).all())
+    }
+
     #[test]
     fn every_box_that_holds_a_point_of_the_surface_is_kept() {
         let points: alloc::vec::Vec<Vec3> = surface_points(4000).collect();
@@ -169,12 +184,8 @@ mod tests {
         let mut next = move || state() as f32 / u32::MAX as f32;
         let (mut kept, mut dropped) = (0, 0);
         for _ in 0..3000 {
-            let c = Vec3::new(next(), next(), next()) * 2.4 - Vec3::splat(1.2);
-            let half = Vec3::new(next(), next(), next()) * 0.3 + Vec3::splat(0.01);
-            let (lo, hi) = (c - half, c + half);
-            let holds = points
-                .iter()
-                .any(|p| p.cmpge(lo).all() && p.cmple(hi).all());
+            let (lo, hi) = sample_box(&mut next, 1.2, 0.3);
+            let holds = holds_one(&points, lo, hi);
             let filed = sphere_surface_box_overlap(Vec3::ZERO, 1.0, 0.0, lo, hi);
             assert!(filed || !holds, "box {lo:?}..{hi:?} holds a surface point");
             kept += usize::from(filed);
@@ -208,12 +219,8 @@ mod tests {
                 })
                 .collect();
             for _ in 0..400 {
-                let c = Vec3::new(next(), next(), next()) * 3.0 - Vec3::splat(1.5);
-                let half = Vec3::new(next(), next(), next()) * 0.2 + Vec3::splat(0.01);
-                let (lo, hi) = (c - half, c + half);
-                let holds = points
-                    .iter()
-                    .any(|p| p.cmpge(lo).all() && p.cmple(hi).all());
+                let (lo, hi) = sample_box(&mut next, 1.5, 0.2);
+                let holds = holds_one(&points, lo, hi);
                 let filed = segment_box_overlap(a, b, 0.4 + 1e-4, lo, hi);
                 assert!(
                     filed || !holds,
