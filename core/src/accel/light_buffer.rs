@@ -630,7 +630,7 @@ mod tests {
     #[test]
     fn every_cone_is_listed_where_it_blocks() {
         let mut rng = Rng::new(11);
-        let (mut answered, mut checked, mut listed_cones, mut listed_boxes) = (0, 0, 0, 0);
+        let (mut answered, mut listed_cones, mut listed_boxes) = (0, 0, 0);
         for light in [Vec3::new(0.2, 0.1, 0.0), Vec3::new(6.0, -5.0, 9.0)] {
             let cones = cones(&mut rng, 60);
             let solids: Vec<SolidExtent> = cones.iter().map(|c| c.0).collect();
@@ -654,19 +654,22 @@ mod tests {
                 let on = a + (b - a) * t + (u * libm::cosf(angle) + v * libm::sinf(angle)) * radius;
                 let origin = light + (on - light) * rng.range(1.001, 1.3);
                 let ray = Ray::new(origin, light - origin);
-                if let Some(list) = listed(buffer.candidates(&ray, 1.0)) {
-                    answered += 1;
-                    assert!(
-                        list.contains(&(j as u32)),
-                        "light {light}, ray {ray:?}: cone {j} not listed"
-                    );
+                let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
+                    continue;
+                };
+                answered += 1;
+                assert!(
+                    list.contains(&(j as u32)),
+                    "light {light}, ray {ray:?}: cone {j} not listed"
+                );
+                // Compared where both buffers answer.
+                if let Some(by_box) = listed(by_boxes.candidates(&ray, 1.0)) {
                     listed_cones += list.len();
-                    checked += 1;
+                    listed_boxes += by_box.len();
                 }
-                listed_boxes += listed(by_boxes.candidates(&ray, 1.0)).map_or(0, |l| l.len());
             }
         }
-        assert!(answered > 20_000 && checked > 20_000, "{answered} answered");
+        assert!(answered > 20_000, "{answered} answered");
         // Filed by their axes, fewer cones are listed than by their boxes.
         assert!(
             listed_cones * 20 < listed_boxes * 19,

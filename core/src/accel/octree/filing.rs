@@ -5,12 +5,14 @@
 //! answers [`Filing::children_touched`]. The answer for one primitive comes in three steps, each
 //! exact, from cheap to dear:
 //! 1. Its box against the centre planes (exact comparisons, no margin) gives the candidate
-//!    children. Steps 1 and 2 compare all three axes in the lanes of one [`Vec3A`] and look the
-//!    children up in [`REACHED`] by which sides of the planes were reached. A box on one side of every plane has one candidate, and the parent's test
+//!    children. A box on one side of every plane has one candidate, and the parent's test
 //!    already said the primitive touches the parent, so that is the answer.
 //! 2. For a triangle, every child whose grown box holds one of its vertices is touched: each
 //!    vertex is placed in the grown halves of each axis (four comparisons of three lanes per
 //!    vertex, however many candidates there are).
+//!
+//!    Steps 1 and 2 compare all three axes in the lanes of one [`Vec3A`] and look the children
+//!    up in [`REACHED`] by which sides of the planes were reached.
 //! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
 //!    sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the box
 //!    test (other solids).
@@ -59,7 +61,8 @@ fn reached(lower: BVec3A, upper: BVec3A) -> u8 {
 /// The eight children of a cell split at its centre, as the filing tests need them.
 pub(super) struct ChildCells {
     mid: Vec3A,
-    /// Each child's centre and half size, grown by the margin, for the separating-axis test.
+    /// Each child's centre, and its half size grown by the margin, for the separating-axis
+    /// test.
     centers: [Vec3; 8],
     halves: [Vec3; 8],
     /// Each child's box grown by the margin: (lower corner, upper corner).
@@ -170,8 +173,8 @@ impl Filing<'_> {
     /// lone cylinder or cone near its axis and within its reject box, another solid by its reject
     /// box.
     fn solid_touches(&self, j: usize, lo: Vec3, hi: Vec3) -> bool {
-        let b = &self.reach[j];
-        let in_reach = b.min.cmple(hi).all() && b.max.cmpge(lo).all();
+        let reach = &self.reach[j];
+        let in_reach = || reach.min.cmple(hi).all() && reach.max.cmpge(lo).all();
         match self.solids.get(j) {
             Some(&SolidExtent::Sphere {
                 center,
@@ -185,8 +188,8 @@ impl Filing<'_> {
                 radius,
                 margin,
                 ..
-            }) => in_reach && segment_box_overlap(a, b, radius + margin, lo, hi),
-            _ => in_reach,
+            }) => in_reach() && segment_box_overlap(a, b, radius + margin, lo, hi),
+            _ => in_reach(),
         }
     }
 }
