@@ -26,11 +26,9 @@ use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
-use alloc::boxed::Box;
 use alloc::collections::BinaryHeap;
 use alloc::rc::Rc;
 use alloc::vec::Vec;
-use core::cmp::Reverse;
 use glam::Vec3;
 
 /// The memory the tree may take, in bytes per primitive given to the build (nodes and leaf
@@ -56,6 +54,18 @@ fn priority(gain: f32, depth: u32, bytes: usize) -> f32 {
     gain / (1u64 << (2 * depth)) as f32 / bytes as f32
 }
 
+/// The queue's key of `node` at `priority` (positive, so its bits order as its value): the
+/// priority in the upper half, then the node's complement, so that of two equal priorities the
+/// lower node comes first. One integer comparison orders two keys.
+fn queue_key(priority: f32, node: usize) -> u64 {
+    u64::from(priority.to_bits()) << 32 | u64::from(!(node as u32))
+}
+
+/// The node of a [`queue_key`].
+fn queue_node(key: u64) -> usize {
+    !(key as u32) as usize
+}
+
 /// Bytes of a node and of a leaf entry.
 const NODE_BYTES: usize = core::mem::size_of::<Node>();
 const ENTRY_BYTES: usize = core::mem::size_of::<u32>();
@@ -70,9 +80,10 @@ struct Builder<'a> {
     /// The leaves in the queue, by slot; a slot is reused once its leaf leaves the queue.
     queued: Vec<Queued>,
     free: Vec<u32>,
-    /// Leaves worth splitting, best first: (priority bits, node, slot in `queued`). No two
-    /// entries have the same node, so the slot never decides the order.
-    queue: BinaryHeap<(u32, Reverse<u32>, u32)>,
+    /// Leaves worth splitting, best first: [`queue_key`]s (priority, then the lower node).
+    queue: BinaryHeap<u64>,
+    /// Per node: its slot in `queued` while it is queued.
+    slots: Vec<u32>,
     /// The deepest leaf so far.
     depth: u32,
     /// Bytes of the tree as it stands (8 per node, 4 per leaf entry), and the most it may take.
@@ -88,7 +99,7 @@ struct Builder<'a> {
 struct Queued {
     cell: Aabb,
     depth: u32,
-    children: Option<Box<Children>>,
+    children: Option<Children>,
 }
 
 /// A leaf's primitives: a range of a list it shares with its siblings (their parent's children
@@ -120,9 +131,10 @@ impl Refs {
     }
 }
 
-/// The primitive lists of a cell's eight children, in one allocation (boxed in [`Queued`], so
-/// that stays small): child `c`'s are
-/// `refs[start(c)..ends[c]]`, where `start(0)` is 0 and `start(c)` is `ends[c − 1]`.
+/// The primitive lists of a cell's eight children, in one allocation: child `c`'s are
+/// `refs[start(c)..ends[c]]`, where `start(0)` is 0 and `start(c)` is `ends[c − 1]`. Kept in
+/// the leaf's [`Queued`] slot itself: a box of its own cost an allocation per appraisal and a
+/// second load from far away when the leaf is split.
 struct Children {
     refs: Rc<[u32]>,
     ends: [u32; 8],
@@ -183,14 +195,16 @@ impl Octree {
             queued: Vec::new(),
             free: Vec::new(),
             queue: BinaryHeap::new(),
+            slots: Vec::with_capacity(most_nodes(budget)),
             depth: 0,
             bytes: 0,
             masks: Vec::new(),
             budget,
         };
         b.add_leaf(root, 0, Refs::all(filed));
-        while let Some((_, Reverse(node), slot)) = b.queue.pop() {
-            if !b.step(node as usize, slot as usize) {
+        while let Some(key) = b.queue.pop() {
+            let node = queue_node(key);
+            if !b.step(node, b.slots[node] as usize) {
                 break;
             }
         }
@@ -333,6 +347,7 @@ impl Builder<'_> {
         self.bytes += NODE_BYTES + ENTRY_BYTES * n;
         self.nodes.push(Node { first: 0, count: 0 });
         self.leaves.push(Some(refs));
+        self.slots.push(u32::MAX);
         self.depth = self.depth.max(depth);
         if n > self.params.max_leaf_triangles as usize && depth < self.params.max_depth {
             // Every primitive lands in at least one child (the grown children cover the grown
@@ -344,8 +359,8 @@ impl Builder<'_> {
                 depth,
                 children: None,
             });
-            self.queue
-                .push((best.to_bits(), Reverse(node as u32), slot));
+            self.slots[node] = slot;
+            self.queue.push(queue_key(best, node));
         }
     }
 
@@ -382,9 +397,8 @@ impl Builder<'_> {
         if gain > 0.0 {
             let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
             let p = priority(gain, depth, added);
-            self.queue
-                .push((p.to_bits(), Reverse(node as u32), slot as u32));
-            self.queued[slot].children = Some(Box::new(children));
+            self.queue.push(queue_key(p, node));
+            self.queued[slot].children = Some(children);
         } else {
             self.free.push(slot as u32);
         }
@@ -464,14 +478,13 @@ impl Builder<'_> {
         let mut masks = core::mem::take(&mut self.masks);
         masks.clear();
         let refs = self.leaves[node].as_ref().map_or(&[][..], Refs::get);
-        let mut ends = [0u32; 8];
+        let mut tally = Tally::default();
         for &t in refs {
             let mask = self.filing.children_touched(&cells, t as usize);
-            for c in bits(mask) {
-                ends[c] += 1;
-            }
+            tally.add(mask);
             masks.push(mask);
         }
+        let mut ends = tally.counts();
         for c in 1..8 {
             ends[c] += ends[c - 1];
         }
@@ -487,5 +500,85 @@ impl Builder<'_> {
         }
         self.masks = masks;
         Children { refs: lists, ends }
+    }
+}
+
+/// Per child, how many of the masks added so far have its bit set. The counts are eight bytes of
+/// one word, and a mask adds its bits spread one to a byte ([`SPREAD`]): one addition per mask,
+/// where a loop over its set bits ends after one to eight rounds, which the processor cannot
+/// foresee. The bytes are moved into `u32`s before one can overflow.
+#[derive(Default)]
+struct Tally {
+    bytes: u64,
+    pending: u32,
+    counts: [u32; 8],
+}
+
+/// Per mask, its bit `c` in the lowest bit of byte `c`.
+const SPREAD: [u64; 256] = {
+    let mut table = [0u64; 256];
+    let mut m = 0;
+    while m < 256 {
+        let mut c = 0;
+        while c < 8 {
+            table[m] |= ((m as u64 >> c) & 1) << (8 * c);
+            c += 1;
+        }
+        m += 1;
+    }
+    table
+};
+
+impl Tally {
+    #[inline]
+    fn add(&mut self, mask: u8) {
+        self.bytes += SPREAD[usize::from(mask)];
+        self.pending += 1;
+        if self.pending == u32::from(u8::MAX) {
+            self.flush();
+        }
+    }
+
+    fn flush(&mut self) {
+        for (c, count) in self.counts.iter_mut().enumerate() {
+            *count += (self.bytes >> (8 * c)) as u32 & 0xFF;
+        }
+        self.bytes = 0;
+        self.pending = 0;
+    }
+
+    /// The counts, child by child.
+    fn counts(mut self) -> [u32; 8] {
+        self.flush();
+        self.counts
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::octree::xorshift;
+
+    #[test]
+    fn a_tally_counts_each_childs_bit_as_a_loop_over_the_bits_does() {
+        let mut next = xorshift(0x9e37_79b9);
+        // Past several flushes: the full mask 600 times in a row (a byte holds 255), then every
+        // mask, the full one often.
+        for len in [0usize, 1, 254, 255, 256, 1000, 70_000] {
+            let mut tally = Tally::default();
+            let mut expected = [0u32; 8];
+            for k in 0..len {
+                let mask = if k < 600 || k % 3 == 0 {
+                    0xFF
+                } else {
+                    next() as u8
+                };
+                tally.add(mask);
+                for c in bits(mask) {
+                    expected[c] += 1;
+                }
+            }
+            assert_eq!(tally.counts(), expected, "{len} masks");
+        }
     }
 }
