@@ -54,16 +54,17 @@ fn priority(gain: f32, depth: u32, bytes: usize) -> f32 {
     gain / (1u64 << (2 * depth)) as f32 / bytes as f32
 }
 
-/// The queue's key of `node` at `priority` (positive, so its bits order as its value): the
-/// priority in the upper half, then the node's complement, so that of two equal priorities the
-/// lower node comes first. One integer comparison orders two keys.
-fn queue_key(priority: f32, node: usize) -> u64 {
-    u64::from(priority.to_bits()) << 32 | u64::from(!(node as u32))
+/// The queue's key of `node`, queued in `slot`, at `priority` (positive, so its bits order as
+/// its value): the priority, then the node's complement, so that of two equal priorities the
+/// lower node comes first, then the slot (no two keys have the same node, so the slot never
+/// decides). One integer comparison orders two keys.
+fn queue_key(priority: f32, node: usize, slot: u32) -> u128 {
+    u128::from(priority.to_bits()) << 64 | u128::from(!(node as u32)) << 32 | u128::from(slot)
 }
 
-/// The node of a [`queue_key`].
-fn queue_node(key: u64) -> usize {
-    !(key as u32) as usize
+/// The node and the slot of a [`queue_key`].
+fn queue_entry(key: u128) -> (usize, usize) {
+    (!((key >> 32) as u32) as usize, key as u32 as usize)
 }
 
 /// Bytes of a node and of a leaf entry.
@@ -81,9 +82,7 @@ struct Builder<'a> {
     queued: Vec<Queued>,
     free: Vec<u32>,
     /// Leaves worth splitting, best first: [`queue_key`]s (priority, then the lower node).
-    queue: BinaryHeap<u64>,
-    /// Per node: its slot in `queued` while it is queued.
-    slots: Vec<u32>,
+    queue: BinaryHeap<u128>,
     /// The deepest leaf so far.
     depth: u32,
     /// Bytes of the tree as it stands (8 per node, 4 per leaf entry), and the most it may take.
@@ -195,7 +194,6 @@ impl Octree {
             queued: Vec::new(),
             free: Vec::new(),
             queue: BinaryHeap::new(),
-            slots: Vec::with_capacity(most_nodes(budget)),
             depth: 0,
             bytes: 0,
             masks: Vec::new(),
@@ -203,8 +201,8 @@ impl Octree {
         };
         b.add_leaf(root, 0, Refs::all(filed));
         while let Some(key) = b.queue.pop() {
-            let node = queue_node(key);
-            if !b.step(node, b.slots[node] as usize) {
+            let (node, slot) = queue_entry(key);
+            if !b.step(node, slot) {
                 break;
             }
         }
@@ -347,7 +345,6 @@ impl Builder<'_> {
         self.bytes += NODE_BYTES + ENTRY_BYTES * n;
         self.nodes.push(Node { first: 0, count: 0 });
         self.leaves.push(Some(refs));
-        self.slots.push(u32::MAX);
         self.depth = self.depth.max(depth);
         if n > self.params.max_leaf_triangles as usize && depth < self.params.max_depth {
             // Every primitive lands in at least one child (the grown children cover the grown
@@ -359,8 +356,7 @@ impl Builder<'_> {
                 depth,
                 children: None,
             });
-            self.slots[node] = slot;
-            self.queue.push(queue_key(best, node));
+            self.queue.push(queue_key(best, node, slot));
         }
     }
 
@@ -397,7 +393,7 @@ impl Builder<'_> {
         if gain > 0.0 {
             let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
             let p = priority(gain, depth, added);
-            self.queue.push(queue_key(p, node));
+            self.queue.push(queue_key(p, node, slot as u32));
             self.queued[slot].children = Some(children);
         } else {
             self.free.push(slot as u32);
