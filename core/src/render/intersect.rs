@@ -28,14 +28,21 @@ use crate::scene::Scene;
 /// against one; four gave no more).
 pub const SHADOW_CACHE: usize = 2;
 
+/// What a light remembers of its latest shadow rays, for [`Scene::shadowed`] to try first.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ShadowMemory {
+    /// The primitives that blocked its latest blocked shadow rays, the latest first.
+    pub blockers: [Option<u32>; SHADOW_CACHE],
+    /// True if its latest shadow ray reached it. The next most likely does too (the lit part of
+    /// a floor), so the blockers are not tried first: they would only add tests. They are kept
+    /// for the next shadow.
+    pub reached: bool,
+}
+
 /// What [`Scene::shadowed`] knows of a shadow ray besides the ray: the light it goes to (its
 /// index in [`Scene::lights`], for the light's [`LightBuffer`](crate::accel::light_buffer::LightBuffer);
-/// `None` walks the octree), the blockers the light remembers, and the triangle the ray leaves.
-pub type ShadowOf<'a> = (
-    Option<usize>,
-    &'a mut [Option<u32>; SHADOW_CACHE],
-    Option<u32>,
-);
+/// `None` walks the octree), what the light remembers, and the triangle the ray leaves.
+pub type ShadowOf<'a> = (Option<usize>, &'a mut ShadowMemory, Option<u32>);
 
 /// A hit of one primitive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -333,13 +340,13 @@ impl Scene {
     }
 
     /// [`Scene::any_hit`] for a shadow ray towards light `light` (see [`ShadowOf`]), trying
-    /// `last` first: the primitives that blocked the
-    /// latest shadow rays towards the same light, the latest first (POV-Ray's light buffer
-    /// keeps one). Neighbouring pixels are mostly shadowed by the same object, and where two
-    /// objects' shadows meet or alternate by the other, so one or two tests often settle the
-    /// query. The answer is `any_hit`'s whatever is remembered: `last` only decides what is
-    /// tried first. A blocker found, remembered or by the walk, moves to the front of `last`;
-    /// `last` is kept as it is when nothing blocks.
+    /// first, unless the latest shadow ray towards the same light reached it, the primitives that
+    /// blocked the latest blocked ones, the latest first (POV-Ray's light buffer keeps one).
+    /// Neighbouring pixels are mostly shadowed by the same object, and where two objects' shadows
+    /// meet or alternate by the other, so one or two tests often settle the query. The answer is
+    /// `any_hit`'s whatever is remembered: `memory` only decides what is tried first. A blocker
+    /// found, remembered or by the walk, moves to the front of its blockers; they are kept as
+    /// they are when nothing blocks.
     ///
     /// Where the light has a [`LightBuffer`](crate::accel::light_buffer::LightBuffer) that
     /// answers the ray, the primitives it lists are tested instead of walking the octree: the
@@ -355,13 +362,15 @@ impl Scene {
         ray: &Ray,
         t_max: f32,
         scratch: &mut QueryScratch,
-        (light, last, leaving): ShadowOf<'_>,
+        (light, memory, leaving): ShadowOf<'_>,
     ) -> bool {
         let frame = QueryFrame::new(ray);
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         // A scratch carried over from another scene may remember an index this one lacks.
         let primitives = self.solid_index(self.solids.len() as u32);
-        for k in 0..SHADOW_CACHE {
+        let tried = if memory.reached { 0 } else { SHADOW_CACHE };
+        let last = &mut memory.blockers;
+        for k in 0..tried {
             if let Some(i) = last[k].filter(|&i| i < primitives && Some(i) != leaving) {
                 work.intersection_tests += 1;
                 if self.blocks(&frame, ray, i, t_max, spans) {
@@ -403,6 +412,7 @@ impl Scene {
                 .first_blocker_with(ray, t_max, work, |i| tests.blocks(i)),
         };
         let blocker = blocker.or_else(|| self.unbounded_blocker(work, &mut |i| tests.blocks(i)));
+        memory.reached = blocker.is_none();
         if blocker.is_some() {
             last.rotate_right(1);
             last[0] = blocker;

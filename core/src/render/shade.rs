@@ -32,7 +32,7 @@
 use crate::accel::octree::{per_lane, LANES};
 use crate::geom::triangle::{hit_point, unit_normal};
 use crate::math::ray::{offset_ray_origin, Ray};
-use crate::render::intersect::{PrimitiveHit, QueryScratch, SHADOW_CACHE};
+use crate::render::intersect::{PrimitiveHit, QueryScratch, ShadowMemory};
 use crate::render::optics::{reflect, refract};
 use crate::render::sampling::{hemisphere, mix};
 use crate::render::stats::RayCounts;
@@ -123,16 +123,15 @@ pub struct TraceScratch {
     /// The pending rays of the samples traced: four together ([`trace4`]), or the first alone
     /// ([`trace`]).
     packet: [Vec<Pending>; LANES],
-    /// Per light, the primitives that blocked its latest shadow rays, the latest first (see
-    /// [`Scene::shadowed`]).
-    blockers: Vec<[Option<u32>; SHADOW_CACHE]>,
+    /// Per light, what it remembers of its latest shadow rays (see [`Scene::shadowed`]).
+    blockers: Vec<ShadowMemory>,
 }
 
 impl TraceScratch {
     /// Makes room for a remembered blocker per light of `scene`.
     fn prepare(&mut self, scene: &Scene) {
         self.blockers
-            .resize(scene.lights.len(), [None; SHADOW_CACHE]);
+            .resize(scene.lights.len(), ShadowMemory::default());
     }
 }
 
@@ -239,7 +238,7 @@ fn local_color(
     view: Vec3,
     seed: u32,
     spans: &mut QueryScratch,
-    blockers: &mut [[Option<u32>; SHADOW_CACHE]],
+    blockers: &mut [ShadowMemory],
     counts: &mut RayCounts,
 ) -> Vec3 {
     let sh = &scene.shaders[s.shader];

@@ -8,7 +8,7 @@ use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
-use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
+use strahl_core::render::intersect::{QueryScratch, ShadowMemory, SHADOW_CACHE};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
@@ -97,8 +97,8 @@ fn shadowed_leaving_a_triangle_answers_as_any_hit() {
         let ray = Ray::new(origin, light - origin);
         let want = scene.any_hit(&ray, 1.0, &mut scratch);
         // Remembering the triangle it leaves changes nothing either.
-        let mut last = [None; SHADOW_CACHE];
-        last[k as usize % SHADOW_CACHE] = Some(i).filter(|_| k % 3 != 0);
+        let mut last = ShadowMemory::default();
+        last.blockers[k as usize % SHADOW_CACHE] = Some(i).filter(|_| k % 3 != 0);
         let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, Some(i)));
         assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
         if want {

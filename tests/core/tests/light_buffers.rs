@@ -10,7 +10,7 @@ use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::math::transform::Transform;
-use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
+use strahl_core::render::intersect::{QueryScratch, ShadowMemory};
 use strahl_core::scene::mesh::{MeshBuilder, Rng};
 use strahl_core::scene::prepared::light_buffer_peak;
 use strahl_core::scene::{Light, Scene, SceneDesc};
@@ -84,7 +84,7 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
     assert!(scene.light_buffers[4].is_none());
     let mut scratch = QueryScratch::default();
     let (mut listed, mut blocked, mut free) = (0, 0, 0);
-    let mut caches = vec![[None; SHADOW_CACHE]; lights];
+    let mut caches = vec![ShadowMemory::default(); lights];
     for k in 0..40_000usize {
         let l = k % lights;
         let light = scene.lights[l].position;
@@ -103,13 +103,13 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
             (offset_ray_origin(p, err, n, light - p), Some(i as u32))
         };
         let ray = Ray::new(origin, light - origin);
-        let mut none = [None; SHADOW_CACHE];
+        let mut none = ShadowMemory::default();
         let want = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut none, leaving));
         if leaving.is_none() {
             assert_eq!(want, scene.any_hit(&ray, 1.0, &mut scratch), "ray {k}");
         }
         // Fresh, and with what the light remembers from earlier rays.
-        let mut fresh = [None; SHADOW_CACHE];
+        let mut fresh = ShadowMemory::default();
         let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut fresh, leaving));
         assert_eq!(
             got, want,
@@ -142,7 +142,7 @@ fn light_buffers_save_the_walk() {
     for _ in 0..5000 {
         let origin = point(&mut rng, 2.5);
         let ray = Ray::new(origin, light - origin);
-        let (mut a, mut b) = ([None; SHADOW_CACHE], [None; SHADOW_CACHE]);
+        let (mut a, mut b) = (ShadowMemory::default(), ShadowMemory::default());
         scene.shadowed(&ray, 1.0, &mut walked, (None, &mut a, None));
         scene.shadowed(&ray, 1.0, &mut listed, (Some(0), &mut b, None));
     }
@@ -208,9 +208,9 @@ fn light_buffers_answer_as_the_walk_at_every_scale() {
                 on
             };
             let ray = Ray::new(origin, target - origin);
-            let mut none = [None; SHADOW_CACHE];
+            let mut none = ShadowMemory::default();
             let want = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut none, None));
-            let mut fresh = [None; SHADOW_CACHE];
+            let mut fresh = ShadowMemory::default();
             let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut fresh, None));
             assert_eq!(
                 got, want,

@@ -1,12 +1,13 @@
 //! The shadow cache (`Scene::shadowed`, the last blockers per light) gives `Scene::any_hit`'s
-//! answer whatever blockers it remembers, and remembers the primitive that blocked first.
+//! answer whatever blockers it remembers, remembers the primitive that blocked first, and tries
+//! no remembered blocker right after a ray that reached its light.
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
-use strahl_core::render::intersect::{QueryScratch, SHADOW_CACHE};
+use strahl_core::render::intersect::{QueryScratch, ShadowMemory, SHADOW_CACHE};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::Scene;
 use strahl_core_tests::meshes::random_soup;
@@ -45,8 +46,9 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
     let scene = scene(&mut rng);
     let primitives = (scene.triangle_points.len() + scene.solids.len()) as u32;
     let mut scratch = QueryScratch::default();
-    let mut last = [None; SHADOW_CACHE];
+    let mut last = ShadowMemory::default();
     let (mut blocked, mut free, mut remembered_hits, mut second_hits) = (0, 0, 0, 0);
+    let mut skipped = 0;
     for k in 0..20_000 {
         // Shadow rays (t from 0 to 1) between two points of the cloud, so that remembered
         // primitives lie before, on and beyond the light.
@@ -65,35 +67,53 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         // Every third ray starts from an unrelated remembered primitive, every 100th from an
         // index no primitive of this scene has (a scratch carried over from a larger scene).
         if k % 3 == 0 {
-            last[k as usize % SHADOW_CACHE] = Some(rng.next_u64() as u32 % primitives);
+            last.blockers[k as usize % SHADOW_CACHE] = Some(rng.next_u64() as u32 % primitives);
         }
         if k % 100 == 1 {
-            last[0] = Some(primitives + k);
+            last.blockers[0] = Some(primitives + k);
+        }
+        // At times the light is said to have been reached by a ray it was not.
+        if k % 7 == 0 {
+            last.reached = !last.reached;
         }
         let before = last;
-        let cells = scratch.work.octree_cells;
+        let (cells, tests) = (scratch.work.octree_cells, scratch.work.intersection_tests);
         let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, None));
         // No cell entered: settled before the walk (by a remembered blocker, where it is one).
         let cached = scratch.work.octree_cells == cells;
         assert_eq!(got, want, "ray {k}: {ray:?}, remembered {before:?}");
+        assert_eq!(
+            last.reached, !want,
+            "ray {k}: remembers whether it reached the light"
+        );
+        if before.reached && before.blockers.iter().any(Option::is_some) {
+            // Right after a ray that reached the light, the walk alone answers: the same
+            // tests as with nothing remembered.
+            let mut nothing = ShadowMemory::default();
+            let after = scratch.work.intersection_tests;
+            scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut nothing, None));
+            let alone = scratch.work.intersection_tests - after;
+            assert_eq!(after - tests, alone, "ray {k}: tried a remembered blocker");
+            skipped += 1;
+        }
         if want {
             blocked += 1;
-            let b = last[0].expect("a blocked ray leaves its blocker first");
+            let b = last.blockers[0].expect("a blocked ray leaves its blocker first");
             // What it remembers first really blocks this ray.
-            let mut only = [None; SHADOW_CACHE];
-            only[0] = Some(b);
+            let mut only = ShadowMemory::default();
+            only.blockers[0] = Some(b);
             assert!(
                 scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut only, None)),
                 "ray {k}: remembered {b} does not block"
             );
-            if cached && before.contains(&Some(b)) {
+            if cached && before.blockers.contains(&Some(b)) {
                 remembered_hits += 1;
-                second_hits += u32::from(before[0] != Some(b));
+                second_hits += u32::from(before.blockers[0] != Some(b));
             }
         } else {
             free += 1;
             assert_eq!(
-                last, before,
+                last.blockers, before.blockers,
                 "ray {k}: an unblocked ray keeps what was remembered"
             );
         }
@@ -104,7 +124,8 @@ fn shadowed_answers_as_any_hit_whatever_it_remembers() {
         "{blocked} blocked, {free} free"
     );
     assert!(
-        remembered_hits > 20 && second_hits > 5,
-        "{remembered_hits} rays settled by a remembered blocker, {second_hits} by a later one"
+        remembered_hits > 20 && second_hits > 5 && skipped > 1000,
+        "{remembered_hits} rays settled by a remembered blocker, {second_hits} by a later one, \
+         {skipped} after a ray that reached the light"
     );
 }

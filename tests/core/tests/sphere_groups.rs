@@ -7,7 +7,7 @@ use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::{Shape, SolidNode};
 use strahl_core::math::ray::Ray;
 use strahl_core::math::transform::Transform;
-use strahl_core::render::intersect::{PrimitiveHit, QueryScratch, SHADOW_CACHE};
+use strahl_core::render::intersect::{PrimitiveHit, QueryScratch, ShadowMemory};
 use strahl_core::scene::mesh::Rng;
 use strahl_core::scene::{Scene, SceneDesc};
 use strahl_core_tests::meshes::random_soup;
@@ -125,15 +125,15 @@ fn grouped_shadow_rays_are_blocked_as_one_by_one() {
         let to = rng.direction() * rng.range(0.5, 8.0) + Vec3::new(0.0, 0.0, 3.0);
         let ray = Ray::new(from, to - from);
         let expected = single.any_hit(&ray, 1.0, &mut scratch);
-        let (mut last, mut last_single) = ([None; SHADOW_CACHE], [None; SHADOW_CACHE]);
+        let (mut last, mut last_single) = (ShadowMemory::default(), ShadowMemory::default());
         let got = grouped.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, None));
         let one_by_one = single.shadowed(&ray, 1.0, &mut scratch, (None, &mut last_single, None));
         assert_eq!(got, expected, "ray {i}: {ray:?}");
         assert_eq!(one_by_one, expected, "ray {i}: {ray:?}");
         // What the grouped query remembers really blocks the ray.
-        if let Some(b) = last[0] {
-            let mut only = [None; SHADOW_CACHE];
-            only[0] = Some(b);
+        if let Some(b) = last.blockers[0] {
+            let mut only = ShadowMemory::default();
+            only.blockers[0] = Some(b);
             assert!(single.shadowed(&ray, 1.0, &mut scratch, (None, &mut only, None)));
         }
         if expected {
