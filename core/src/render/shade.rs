@@ -128,7 +128,7 @@ pub struct TraceScratch {
 }
 
 impl TraceScratch {
-    /// Makes room for a remembered blocker per light of `scene`.
+    /// Makes room for what each light of `scene` remembers of its shadow rays.
     fn prepare(&mut self, scene: &Scene) {
         self.blockers
             .resize(scene.lights.len(), ShadowMemory::default());

@@ -526,6 +526,7 @@ const SPREAD: [u64; 256] = {
 };
 
 impl Tally {
+    /// Counts the children in `mask` (bit `c` for child `c`).
     #[inline]
     fn add(&mut self, mask: u8) {
         self.bytes += SPREAD[usize::from(mask)];
@@ -535,6 +536,7 @@ impl Tally {
         }
     }
 
+    /// Moves the byte counts into the `u32` counts.
     fn flush(&mut self) {
         for (c, count) in self.counts.iter_mut().enumerate() {
             *count += (self.bytes >> (8 * c)) as u32 & 0xFF;
