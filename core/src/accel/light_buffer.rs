@@ -601,7 +601,6 @@ mod tests {
         tris
     }
 
-    /// The entries a listed query tests.
     /// Thin cones and cylinders at random slants around the origin (as SPD's rings and trees
     /// have), as the octree files them; bottom radius `r0`, top `r1` along the axis `a`–`b`.
     fn cones(rng: &mut Rng, n: usize) -> Vec<(SolidExtent, [Vec3; 2], [f32; 2])> {
@@ -677,6 +676,7 @@ mod tests {
         );
     }
 
+    /// The entries a listed query tests.
     fn listed(c: Candidates<'_>) -> Option<Vec<u32>> {
         match c {
             Candidates::Walk => None,
