@@ -103,12 +103,19 @@ fn stats_json_describes_the_render() -> TestResult {
             .is_some_and(|o| o.ends_with("room.bmp")),
         "{s:#}"
     );
-    for key in ["total", "load", "octree", "tracing"] {
+    for key in ["total", "load", "octree", "tracing", "writing"] {
         assert!(
             s["seconds"][key].as_f64().is_some_and(|t| t >= 0.0),
             "seconds.{key} in {s:#}"
         );
     }
+    // The tracing ends when the last line is in, the writing of the file follows: both are
+    // parts of the total.
+    let secs = |key: &str| s["seconds"][key].as_f64().unwrap_or(f64::NAN);
+    assert!(
+        secs("tracing") + secs("writing") <= secs("total"),
+        "seconds in {s:#}"
+    );
 
     // Rays: one primary per pixel, no extra samples, and the total is the sum of the kinds.
     let rays = &s["rays"];

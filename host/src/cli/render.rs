@@ -495,15 +495,19 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
             },
         });
     }
-    let image = image?;
+    let Traced { image, complete } = image?;
+    let written = Instant::now();
+    let traced_from = image
+        .first_request
+        .map_or(render_start, |t| t.max(render_start));
     let times = Times {
-        total: start.elapsed(),
+        total: written.duration_since(start),
         load,
         octree_build,
-        // Waiting for workers and the scene's transfer are not tracing.
-        render: image
-            .first_request
-            .map_or_else(|| render_start.elapsed(), |t| t.max(render_start).elapsed()),
+        // Waiting for workers and the scene's transfer are not tracing, nor is writing the
+        // file (POV-Ray's `Trace Time` ends before its file is written, too).
+        render: complete.saturating_duration_since(traced_from),
+        writing: written.saturating_duration_since(complete),
     };
     report(args, &loaded, &prepared, &image, times)?;
     if let Some((server, _)) = view {
@@ -557,6 +561,14 @@ struct Times {
     load: Duration,
     octree_build: Duration,
     render: Duration,
+    writing: Duration,
+}
+
+/// A render the master finished: its image, and when it had every line (the tracing's end;
+/// the file is written after).
+struct Traced {
+    image: ClusterImage,
+    complete: Instant,
 }
 
 /// Writes the statistics (`--stats-json`) and, unless `-q`, prints the summary, the effects
@@ -579,6 +591,7 @@ fn report(
         load: times.load,
         octree_build: times.octree_build,
         render: times.render,
+        writing: times.writing,
         triangles: scene.triangle_points.len(),
         solids: scene.solids.len(),
         octree: *scene.octree.stats(),
@@ -666,7 +679,7 @@ fn check_image_memory(
 
 /// Renders `prepared` with the workers the command line names, keeping every result in the
 /// checkpoint (going on from it with `--resume`), and writes the image; the checkpoint is
-/// removed once the image is written.
+/// removed once the image is written. Returns the image and when the master had every line.
 ///
 /// # Errors
 /// A checkpoint that cannot be opened, no worker, the render failing or stopped (the error
@@ -679,7 +692,7 @@ fn render_and_write(
     progress: &Progress,
     warn: &(dyn Fn(&str) + Sync),
     hub: Option<&Hub>,
-) -> anyhow::Result<ClusterImage> {
+) -> anyhow::Result<Traced> {
     let job = prepared.job();
     let (checkpoint, kept) = open_checkpoint(args.resume, output.path, &job)?;
     if !kept.is_empty() && !args.quiet {
@@ -738,6 +751,7 @@ fn render_and_write(
         &args.master_options(secret),
         &hooks,
     );
+    let complete = Instant::now();
     progress.finish();
     let listened = workers.acceptor.as_ref().map(|a| a.address);
     drop(workers);
@@ -754,7 +768,7 @@ fn render_and_write(
     if let Some(c) = checkpoint {
         c.remove()?;
     }
-    Ok(image)
+    Ok(Traced { image, complete })
 }
 
 /// Why the master gave no image, in words: when no worker ever joined a listening master,

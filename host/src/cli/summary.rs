@@ -24,8 +24,11 @@ pub struct RenderSummary {
     pub load: Duration,
     /// Time spent building the octree (part of `total`).
     pub octree_build: Duration,
-    /// Time spent tracing rays (part of `total`).
+    /// Time spent tracing rays (part of `total`): from the first line asked of a worker to the
+    /// last line in.
     pub render: Duration,
+    /// Time spent writing the image file after the tracing (part of `total`).
+    pub writing: Duration,
     /// Triangles in the scene.
     pub triangles: usize,
     /// Solid objects (analytic shapes and CSG) in the scene.
@@ -193,8 +196,10 @@ pub struct StatsSeconds {
     pub load: f64,
     /// Building the octree.
     pub octree: f64,
-    /// Tracing.
+    /// Tracing: from the first line asked of a worker to the last line in.
     pub tracing: f64,
+    /// Writing the image file, after the tracing.
+    pub writing: f64,
 }
 
 /// Rays by kind and their sum.
@@ -303,6 +308,7 @@ impl RenderStats {
                 load: summary.load.as_secs_f64(),
                 octree: summary.octree_build.as_secs_f64(),
                 tracing: summary.render.as_secs_f64(),
+                writing: summary.writing.as_secs_f64(),
             },
             triangles: summary.triangles,
             solids: summary.solids,
@@ -343,6 +349,7 @@ mod tests {
             load: Duration::from_millis(170),
             octree_build: Duration::from_millis(50),
             render: Duration::from_millis(1000),
+            writing: Duration::from_millis(10),
             triangles: 12345,
             solids: 3,
             octree: OctreeStats {
