@@ -162,6 +162,16 @@ pub trait Outbox<L> {
     /// worker has one. Called once per session (again after a new `Hello`). A transport that
     /// gives a handshake less time than a session between frames lifts that limit here.
     fn established(&mut self) {}
+
+    /// Every answer to one master message has been given ([`serve_with`] calls this after each
+    /// message it handles, a `RenderLines` of many lines included): an outbox that holds
+    /// answers back writes them now. [`Inline`] holds none back.
+    ///
+    /// # Errors
+    /// The link's error; the session ends with it.
+    fn flush(&mut self, _link: &mut L) -> Result<(), WorkerError> {
+        Ok(())
+    }
 }
 
 /// One line's buffers, sized from the scene on first use.
@@ -342,19 +352,25 @@ pub fn serve_with<L: Read, O: Outbox<L>>(
             ReadEvent::Dropped(_) => Err(ProtocolError::Decode),
         };
         let mut io = Io { link, out };
-        match msg {
-            Ok(msg) => {
-                if let Some(end) = session.handle(msg, cache, &mut io)? {
-                    return Ok(end);
-                }
-            }
+        let handled = match msg {
+            Ok(msg) => session.handle(msg, cache, &mut io),
             Err(_) => {
                 session.dropped = session.dropped.saturating_add(1);
+                let total = session.dropped;
                 if session.greeting.is_some() {
-                    let total = session.dropped;
-                    io.send(&WorkerMessage::Dropped { total })?;
+                    io.send(&WorkerMessage::Dropped { total }).map(|()| None)
+                } else {
+                    Ok(None)
                 }
             }
+        };
+        // What was answered goes out even when the session ends with an error (a `Hello`
+        // answered before a version mismatch, a refusal before the session ends unproven).
+        let flushed = io.out.flush(io.link);
+        let end = handled?;
+        flushed?;
+        if let Some(end) = end {
+            return Ok(end);
         }
     }
 }

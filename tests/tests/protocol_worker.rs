@@ -28,7 +28,8 @@ use strahl_core::wire::scene_blob::{memory_estimate, SceneBlob};
 use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
-use strahl_core::worker::{serve, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_core::worker::{serve, serve_with, NodeInfo, SceneCache, SessionEnd, WorkerError};
+use strahl_host::cluster::local::Held;
 use strahl_tcp::threads::serve_threaded;
 
 // ---------------------------------------------------------------------------------------------
@@ -321,8 +322,9 @@ impl std::io::Write for SharedOutput {
 
 /// Runs `serve` on the script, fed in pieces of `piece` bytes; returns its result and what the
 /// worker sent. The same script through the threaded worker of `strahl worker`
-/// (`strahl_tcp::threads`, 3 render threads, with a copy of the cache) must give the same
-/// result and the same bytes, in the same order.
+/// (`strahl_tcp::threads`, 3 render threads, with a copy of the cache) and through the outbox
+/// of `strahl render`'s in-process workers (`Held`, which writes a message's answers together)
+/// must give the same result and the same bytes, in the same order.
 fn run_pieces(
     script: &Script,
     node: &NodeInfo<'_>,
@@ -330,6 +332,7 @@ fn run_pieces(
     piece: usize,
 ) -> (Result<SessionEnd, WorkerError>, Vec<Out>) {
     let mut threaded_cache = cache.clone();
+    let mut held_cache = cache.clone();
     let mut link = ScriptLink {
         input: script.bytes.clone(),
         pos: 0,
@@ -360,6 +363,19 @@ fn run_pieces(
         threaded_bytes == link.output,
         "the threaded worker sends other bytes: {:?}",
         decode_output(&threaded_bytes)
+    );
+    let mut held_link = ScriptLink {
+        input: script.bytes.clone(),
+        pos: 0,
+        piece,
+        output: Vec::new(),
+    };
+    let held = serve_with(&mut held_link, &mut Held::default(), node, &mut held_cache);
+    assert_eq!(held, result, "the held outbox ends the session alike");
+    assert!(
+        held_link.output == link.output,
+        "the held outbox sends other bytes: {:?}",
+        decode_output(&held_link.output)
     );
     (result, decode_output(&link.output))
 }
@@ -626,6 +642,75 @@ fn a_multi_line_request_is_answered_line_by_line_in_order() {
     );
     want.push(Out::FenceAck { seq: 5 });
     assert_eq!(out, want);
+}
+
+/// A link that keeps each write apart (and counts the flushes after them).
+#[derive(Default)]
+struct Writes {
+    input: Vec<u8>,
+    pos: usize,
+    writes: Vec<Vec<u8>>,
+}
+
+impl ErrorType for Writes {
+    type Error = ErrorKind;
+}
+
+impl Read for Writes {
+    fn read(&mut self, buf: &mut [u8]) -> Result<usize, ErrorKind> {
+        let n = buf.len().min(self.input.len() - self.pos);
+        buf[..n].copy_from_slice(&self.input[self.pos..self.pos + n]);
+        self.pos += n;
+        Ok(n)
+    }
+}
+
+impl Write for Writes {
+    fn write(&mut self, buf: &[u8]) -> Result<usize, ErrorKind> {
+        self.writes.push(buf.to_vec());
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> Result<(), ErrorKind> {
+        Ok(())
+    }
+}
+
+#[test]
+fn the_held_outbox_writes_each_messages_answers_at_once() {
+    let f = room();
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .send(MasterMessage::RenderLines {
+            job: 1,
+            first: 2,
+            count: 5,
+        })
+        .line(1, 9)
+        .send(MasterMessage::Fence { seq: 3 });
+    let mut link = Writes {
+        input: script.bytes.clone(),
+        ..Writes::default()
+    };
+    let end = serve_with(&mut link, &mut Held::default(), &node(MEMORY), &mut cache);
+    assert_eq!(end, Ok(SessionEnd::Closed));
+    // One write per message answered: the greeting, the job, the five lines, the one line, the
+    // fence.
+    let writes: Vec<Vec<Out>> = link.writes.iter().map(|w| decode_output(w)).collect();
+    let lines = |ys: core::ops::Range<u32>| ys.map(|y| expected_line(&f, 1, y)).collect();
+    assert_eq!(
+        writes,
+        vec![
+            vec![worker_hello(MEMORY)],
+            vec![Out::Ready { job: 1 }],
+            lines(2..7),
+            lines(9..10),
+            vec![Out::FenceAck { seq: 3 }],
+        ]
+    );
 }
 
 const SECRET: &[u8] = b"sixteen or more bytes of secret";
