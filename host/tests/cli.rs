@@ -507,3 +507,46 @@ fn a_closed_stderr_or_stdout_never_ends_a_render() -> TestResult {
     }
     Ok(())
 }
+
+#[test]
+fn slow_lines_asked_together_show_the_master_their_progress() -> TestResult {
+    // The demo room, 64 lines asked of the one local worker in a single request, each line
+    // tens of milliseconds (16 × 16 samples a pixel), the worker declared hung after a quarter
+    // of a second of silence: the whole request takes seconds, so the worker must send its
+    // lines as it goes (it holds answers back for at most 50 ms, then sends them with the next
+    // line), or the master drops it and no image is written.
+    let dir = tempfile::tempdir()?;
+    let room = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes/room/raytracer.cfg");
+    let out = dir.path().join("slow.bmp");
+    let args = [
+        "render",
+        room.to_str().ok_or("a UTF-8 path")?,
+        "-w",
+        "512",
+        "-h",
+        "64",
+        "-m",
+        "16",
+        "--workers",
+        "1",
+        "--lines-per-request",
+        "64",
+        "--worker-timeout",
+        "0.25",
+        "-o",
+        out.to_str().ok_or("a UTF-8 path")?,
+        "--quiet",
+    ];
+    let started = std::time::Instant::now();
+    let r = strahl(dir.path(), &args)?;
+    assert_success(&r);
+    assert!(out.exists(), "no image:\n{}", stderr(&r));
+    // The request took far longer than the worker timeout (3.3 s on the machine this was
+    // written on), so the test says something.
+    assert!(
+        started.elapsed() > std::time::Duration::from_secs(1),
+        "the render took only {:?}",
+        started.elapsed()
+    );
+    Ok(())
+}

@@ -29,7 +29,7 @@ use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
 use strahl_core::worker::{serve, serve_with, NodeInfo, SceneCache, SessionEnd, WorkerError};
-use strahl_host::cluster::local::Held;
+use strahl_host::cluster::local::{Held, HOLD_LIMIT};
 use strahl_tcp::threads::serve_threaded;
 
 // ---------------------------------------------------------------------------------------------
@@ -695,7 +695,13 @@ fn the_held_outbox_writes_each_messages_answers_at_once() {
         input: script.bytes.clone(),
         ..Writes::default()
     };
-    let end = serve_with(&mut link, &mut Held::default(), &node(MEMORY), &mut cache);
+    // A clock that stands still, so no answer waits past the limit on a slow machine.
+    fn frozen() -> std::time::Instant {
+        static NOW: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+        *NOW.get_or_init(std::time::Instant::now)
+    }
+    let mut outbox = Held::with_clock(frozen);
+    let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
     assert_eq!(end, Ok(SessionEnd::Closed));
     // One write per message answered: the greeting, the job, the five lines, the one line, the
     // fence.
@@ -709,6 +715,50 @@ fn the_held_outbox_writes_each_messages_answers_at_once() {
             lines(2..7),
             lines(9..10),
             vec![Out::FenceAck { seq: 3 }],
+        ]
+    );
+}
+
+#[test]
+fn the_held_outbox_writes_what_waited_its_limit_with_the_next_line() {
+    // A clock that moves 20 ms each time it is read: the first line is held, the second (20 ms
+    // later) too, the third (40 ms) too, the fourth (60 ms, past the 50 ms limit) goes out with
+    // the three before it; then the fifth and sixth wait for the end of the request.
+    static TICKS: AtomicU8 = AtomicU8::new(0);
+    fn clock() -> std::time::Instant {
+        static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
+        let start = *START.get_or_init(std::time::Instant::now);
+        let tick = u64::from(TICKS.fetch_add(1, Ordering::SeqCst));
+        start + std::time::Duration::from_millis(20 * tick)
+    }
+    assert_eq!(HOLD_LIMIT, std::time::Duration::from_millis(50));
+    let f = room();
+    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .send(MasterMessage::RenderLines {
+            job: 1,
+            first: 0,
+            count: 6,
+        });
+    let mut link = Writes {
+        input: script.bytes.clone(),
+        ..Writes::default()
+    };
+    let mut outbox = Held::with_clock(clock);
+    let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
+    assert_eq!(end, Ok(SessionEnd::Closed));
+    let writes: Vec<Vec<Out>> = link.writes.iter().map(|w| decode_output(w)).collect();
+    let lines = |ys: core::ops::Range<u32>| ys.map(|y| expected_line(&f, 1, y)).collect();
+    assert_eq!(
+        writes,
+        vec![
+            vec![worker_hello(MEMORY)],
+            vec![Out::Ready { job: 1 }],
+            lines(0..4),
+            lines(4..6),
         ]
     );
 }
