@@ -29,7 +29,7 @@ use strahl_core::wire::{
     MAX_CHUNK_LEN, MAX_FRAME_LEN, PIXEL_WIRE_BYTES, PROTOCOL_VERSION, SCENE_WINDOW,
 };
 use strahl_core::worker::{serve, serve_with, NodeInfo, SceneCache, SessionEnd, WorkerError};
-use strahl_host::cluster::local::{Held, HOLD_LIMIT};
+use strahl_host::cluster::held::{Held, HOLD_LIMIT};
 use strahl_tcp::threads::serve_threaded;
 
 // ---------------------------------------------------------------------------------------------

@@ -4,24 +4,17 @@
 //! so a local render goes through the same scheduler, frames and checks as a cluster render.
 //! The threads share the master's prepared scene through a pre-filled
 //! [`SceneCache`]: they answer the job with `Ready` at once, and nothing is built twice. Their
-//! outbox ([`Held`]) writes the answers to one request together: a pipe write wakes the
-//! master's reading thread, and on a scene of cheap lines (SPD's tetra) one wake per line cost
-//! the worker a tenth of its time.
+//! outbox is [`Held`], which writes the answers to one request together.
 
+use crate::cluster::held::Held;
 use crate::cluster::link::Link;
 use crate::cluster::master::{run_master, ClusterError, ClusterImage, MasterOptions};
 use crate::cluster::pipe::{duplex, LinkModel, PipeEnd};
 use crate::cluster::prepared::PreparedScene;
 use crate::util::secret::random_nonce;
-use embedded_io::Write;
 use embedded_io_adapters::std::FromStd;
-use std::time::{Duration, Instant};
 use strahl_core::render::stats::RayCounts;
-use strahl_core::wire::frame::{write_all, FrameWriter};
-use strahl_core::wire::message::WorkerMessage;
-use strahl_core::worker::{
-    serve_with, LineBuffers, LineRequest, NodeInfo, Outbox, SceneCache, WorkerError,
-};
+use strahl_core::worker::{serve_with, NodeInfo, Outbox, SceneCache};
 
 /// The most in-process workers a render takes (`--workers`, the view's form).
 pub const MAX_WORKERS: u32 = 1024;
@@ -37,84 +30,6 @@ pub const LOCAL_SCENE_MEMORY: u64 = u64::MAX;
 /// If a thread cannot be started.
 pub fn spawn_local_workers(count: usize, cache: &SceneCache) -> std::io::Result<Vec<Link>> {
     spawn_pipe_workers(count, cache, "local", Held::default)
-}
-
-/// The answers [`Inline`](strahl_core::worker::Inline) gives, encoded as they are given and
-/// written to the link together when the master's message they answer is done
-/// ([`Outbox::flush`]): the lines of one `RenderLines` reach the master in one write, in
-/// order, the request's time after the first of them. Answers held for [`HOLD_LIMIT`] go out
-/// with the next line: a request of slow lines (`--lines-per-request`) still shows the master
-/// its progress line by line, so it never looks hung.
-#[derive(Debug)]
-pub struct Held {
-    writer: FrameWriter,
-    buffers: LineBuffers,
-    /// The frames given since the last flush, back to back.
-    held: Vec<u8>,
-    /// When the oldest of them was given.
-    since: Option<Instant>,
-    /// The clock (`Instant::now`; tests give their own).
-    now: fn() -> Instant,
-}
-
-impl Default for Held {
-    fn default() -> Self {
-        Held::with_clock(Instant::now)
-    }
-}
-
-/// The longest [`Held`] keeps an answer while it renders more lines (the master's requests
-/// are about 2 ms of work, `docs/protocol.md`).
-pub const HOLD_LIMIT: Duration = Duration::from_millis(50);
-
-impl Held {
-    /// An outbox holding nothing, whose time is `now()`.
-    pub fn with_clock(now: fn() -> Instant) -> Self {
-        Held {
-            writer: FrameWriter::new(),
-            buffers: LineBuffers::new(),
-            held: Vec::new(),
-            since: None,
-            now,
-        }
-    }
-
-    /// Appends `msg`'s frame to the held answers; writes them all if the oldest has waited for
-    /// [`HOLD_LIMIT`].
-    fn hold<L: Write>(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        let frame = self.writer.encode(msg).map_err(WorkerError::Encode)?;
-        self.held.extend_from_slice(frame);
-        let now = (self.now)();
-        if now.saturating_duration_since(*self.since.get_or_insert(now)) >= HOLD_LIMIT {
-            return Outbox::flush(self, link);
-        }
-        Ok(())
-    }
-}
-
-impl<L: Write> Outbox<L> for Held {
-    fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        self.hold(link, msg)
-    }
-
-    fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError> {
-        let mut buffers = core::mem::take(&mut self.buffers);
-        let answered = buffers
-            .answer(request)
-            .and_then(|answer| self.hold(link, &answer));
-        self.buffers = buffers;
-        answered
-    }
-
-    fn flush(&mut self, link: &mut L) -> Result<(), WorkerError> {
-        self.since = None;
-        if self.held.is_empty() {
-            return Ok(());
-        }
-        let written = write_all(link, &self.held);
-        self.held.clear();
-        written.map_err(WorkerError::Link)
-    }
 }
 
 /// Starts `count` worker threads named `NAME-1`, `NAME-2`, ... that answer through the outbox

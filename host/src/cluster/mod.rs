@@ -27,6 +27,7 @@
 //! - [`pipe`]: in-process byte pipes, with a link model (latency, bandwidth, bit flips).
 //! - [`prepared`]: a scene built once and encoded once, for the master and in-process workers.
 //! - [`local`]: worker threads in this process, the default executor of `strahl render`.
+//! - [`held`]: their outbox, which writes the answers to one request together.
 //! - [`executor`]: which workers a render uses (local threads, TCP, serial, dialling in,
 //!   launched on a hosts file's machines) and starting them.
 //! - [`slurm`]: `--slurm`: the allocation and the `srun` step that starts a worker per node.
@@ -44,6 +45,7 @@ pub(crate) mod assembly;
 pub mod checkpoint;
 pub mod executor;
 pub mod faults;
+pub mod held;
 pub mod job;
 pub mod link;
 pub(crate) mod link_threads;
