@@ -132,6 +132,10 @@ impl Script {
     fn line(&mut self, job: u32, line: u32) -> &mut Self {
         self.send(MasterMessage::RenderLine { job, line })
     }
+
+    fn lines(&mut self, job: u32, first: u32, count: u32) -> &mut Self {
+        self.send(MasterMessage::RenderLines { job, first, count })
+    }
 }
 
 /// A worker message, owned, with the pixels decoded.
@@ -676,44 +680,49 @@ impl Write for Writes {
     }
 }
 
-#[test]
-fn the_held_outbox_writes_each_messages_answers_at_once() {
-    let f = room();
+/// What `Held` (with the clock `now`) writes for the room fixture's `script` (after the
+/// greeting and a job for the cached room), each write decoded apart.
+fn held_writes(f: &Fixture, script: &Script, now: fn() -> std::time::Instant) -> Vec<Vec<Out>> {
     let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
-    let mut script = Script::default();
-    script
-        .hello()
-        .job(1, &f.blob)
-        .send(MasterMessage::RenderLines {
-            job: 1,
-            first: 2,
-            count: 5,
-        })
-        .line(1, 9)
-        .send(MasterMessage::Fence { seq: 3 });
     let mut link = Writes {
         input: script.bytes.clone(),
         ..Writes::default()
     };
+    let mut outbox = Held::with_clock(now);
+    let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
+    assert_eq!(end, Ok(SessionEnd::Closed));
+    link.writes.iter().map(|w| decode_output(w)).collect()
+}
+
+/// What a worker answers for lines `ys` of job 1 of the fixture.
+fn lines_of(f: &Fixture, ys: core::ops::Range<u32>) -> Vec<Out> {
+    ys.map(|y| expected_line(f, 1, y)).collect()
+}
+
+#[test]
+fn the_held_outbox_writes_each_messages_answers_at_once() {
     // A clock that stands still, so no answer waits past the limit on a slow machine.
     fn frozen() -> std::time::Instant {
         static NOW: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
         *NOW.get_or_init(std::time::Instant::now)
     }
-    let mut outbox = Held::with_clock(frozen);
-    let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
-    assert_eq!(end, Ok(SessionEnd::Closed));
+    let f = room();
+    let mut script = Script::default();
+    script
+        .hello()
+        .job(1, &f.blob)
+        .lines(1, 2, 5)
+        .line(1, 9)
+        .send(MasterMessage::Fence { seq: 3 });
     // One write per message answered: the greeting, the job, the five lines, the one line, the
     // fence.
-    let writes: Vec<Vec<Out>> = link.writes.iter().map(|w| decode_output(w)).collect();
-    let lines = |ys: core::ops::Range<u32>| ys.map(|y| expected_line(&f, 1, y)).collect();
     assert_eq!(
-        writes,
+        held_writes(&f, &script, frozen),
         vec![
             vec![worker_hello(MEMORY)],
             vec![Out::Ready { job: 1 }],
-            lines(2..7),
-            lines(9..10),
+            lines_of(&f, 2..7),
+            lines_of(&f, 9..10),
             vec![Out::FenceAck { seq: 3 }],
         ]
     );
@@ -733,32 +742,15 @@ fn the_held_outbox_writes_what_waited_its_limit_with_the_next_line() {
     }
     assert_eq!(HOLD_LIMIT, std::time::Duration::from_millis(50));
     let f = room();
-    let mut cache = SceneCache::with_scene(f.blob.digest, Arc::new(f.scene.clone()));
     let mut script = Script::default();
-    script
-        .hello()
-        .job(1, &f.blob)
-        .send(MasterMessage::RenderLines {
-            job: 1,
-            first: 0,
-            count: 6,
-        });
-    let mut link = Writes {
-        input: script.bytes.clone(),
-        ..Writes::default()
-    };
-    let mut outbox = Held::with_clock(clock);
-    let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
-    assert_eq!(end, Ok(SessionEnd::Closed));
-    let writes: Vec<Vec<Out>> = link.writes.iter().map(|w| decode_output(w)).collect();
-    let lines = |ys: core::ops::Range<u32>| ys.map(|y| expected_line(&f, 1, y)).collect();
+    script.hello().job(1, &f.blob).lines(1, 0, 6);
     assert_eq!(
-        writes,
+        held_writes(&f, &script, clock),
         vec![
             vec![worker_hello(MEMORY)],
             vec![Out::Ready { job: 1 }],
-            lines(0..4),
-            lines(4..6),
+            lines_of(&f, 0..4),
+            lines_of(&f, 4..6),
         ]
     );
 }
