@@ -6,6 +6,8 @@
 //! rendered lines are byte-identical to `render_line` on the same scene, that the scene cache
 //! skips a second transfer, and how the worker answers version mismatches, messages before
 //! `Hello`, requests it cannot serve, scenes too large or corrupt, damaged frames and lost chunks.
+//! The outbox of `strahl render`'s in-process workers (`Held`) must send the same bytes, and
+//! write each master message's answers together (sooner once one has waited 50 ms).
 
 use embedded_io::{ErrorKind, ErrorType, Read, Write};
 use glam::Vec3;
@@ -648,7 +650,7 @@ fn a_multi_line_request_is_answered_line_by_line_in_order() {
     assert_eq!(out, want);
 }
 
-/// A link that keeps each write apart (and counts the flushes after them).
+/// A link that keeps each write apart.
 #[derive(Default)]
 struct Writes {
     input: Vec<u8>,
