@@ -54,11 +54,8 @@ impl Held {
         }
     }
 
-    /// Appends `msg`'s frame to the held answers; writes them all if the oldest has waited for
-    /// [`HOLD_LIMIT`].
-    fn hold<L: Write>(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        let frame = self.writer.encode(msg).map_err(WorkerError::Encode)?;
-        self.held.extend_from_slice(frame);
+    /// Writes the held answers if the oldest has waited for [`HOLD_LIMIT`].
+    fn release_if_due<L: Write>(&mut self, link: &mut L) -> Result<(), WorkerError> {
         let now = (self.now)();
         if now.saturating_duration_since(*self.since.get_or_insert(now)) >= HOLD_LIMIT {
             return Outbox::flush(self, link);
@@ -67,18 +64,26 @@ impl Held {
     }
 }
 
+/// Appends `msg`'s frame, encoded by `writer`, to `held`.
+fn hold(
+    writer: &mut FrameWriter,
+    held: &mut Vec<u8>,
+    msg: &WorkerMessage<'_>,
+) -> Result<(), WorkerError> {
+    held.extend_from_slice(writer.encode(msg).map_err(WorkerError::Encode)?);
+    Ok(())
+}
+
 impl<L: Write> Outbox<L> for Held {
     fn send(&mut self, link: &mut L, msg: &WorkerMessage<'_>) -> Result<(), WorkerError> {
-        self.hold(link, msg)
+        hold(&mut self.writer, &mut self.held, msg)?;
+        self.release_if_due(link)
     }
 
     fn render(&mut self, link: &mut L, request: LineRequest<'_>) -> Result<(), WorkerError> {
-        let mut buffers = core::mem::take(&mut self.buffers);
-        let answered = buffers
-            .answer(request)
-            .and_then(|answer| self.hold(link, &answer));
-        self.buffers = buffers;
-        answered
+        let answer = self.buffers.answer(request)?;
+        hold(&mut self.writer, &mut self.held, &answer)?;
+        self.release_if_due(link)
     }
 
     fn flush(&mut self, link: &mut L) -> Result<(), WorkerError> {
