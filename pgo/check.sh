@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# CI's check of the profile-guided build (.ci/run, after the tests): the release binary, built
+# with the committed profile, renders every training scene, the FART scenes and the seed's room
+# to the same bytes as the test build, which is built without it; and the profile is current:
+# where this is the compiler that recorded it (pgo/recorded-with), a function whose code changed
+# since (rustc warns "function control flow change detected") fails the check, as it would lose
+# its optimisation silently. Re-record with `bash pgo/record.sh`.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+case "$(uname -s)-$(uname -m)" in
+Linux-x86_64) ;;
+*)
+    echo "pgo/check.sh: the profile applies to x86_64 Linux only; nothing to check here"
+    exit 0
+    ;;
+esac
+log="$(mktemp)"
+out="$(mktemp -d)"
+trap 'rm -rf "$log" "$out"' EXIT
+
+touch core/src/lib.rs # the warnings come only from a compile
+cargo build --release -p strahl-host 2>&1 | tee "$log"
+if grep -q "control flow change detected" "$log"; then
+    if grep -qx "rustc $(rustc -vV | sed -n 's/^release: //p')" pgo/recorded-with; then
+        echo "pgo/check.sh: the profile is stale (functions above changed since it was recorded);" \
+            "run: bash pgo/record.sh" >&2
+        exit 1
+    fi
+    echo "pgo/check.sh: another compiler than pgo/recorded-with's; its hash warnings are not checked"
+fi
+cargo build -p strahl-host --profile test
+scenes=(pgo/scenes/*.nff scenes/fart/*.fart scenes/room/raytracer.cfg)
+for scene in "${scenes[@]}"; do
+    for build in release debug; do
+        target/$build/strahl render "$scene" -w 96 -h 72 -m 2 -d 5 --workers 2 -q \
+            --reflections on -o "$out/$build.png"
+    done
+    if ! cmp -s "$out/release.png" "$out/debug.png"; then
+        echo "pgo/check.sh: $scene: the release build's image differs from the test build's" >&2
+        exit 1
+    fi
+done
+echo "pgo/check.sh: ${#scenes[@]} scenes byte-identical from the profile-guided release build"
