@@ -4,10 +4,13 @@
 //!   solids, with generic closest-hit and any-hit walks that take a per-primitive test.
 //! - [`light_buffer`]: per light, the primitives that may stand between it and a point, by
 //!   direction; shadow rays test those instead of walking the octree where it is short.
+//! - [`leaf_spheres`]: the lone spheres of the octree's large leaves, in groups ready for the
+//!   grouped tests.
 //! - [`work`]: the counts of cells entered and primitives tested that the walks keep.
 //!
 //! The layer uses [`crate::math`] and [`crate::geom`].
 
+pub mod leaf_spheres;
 pub mod light_buffer;
 pub mod octree;
 pub mod work;

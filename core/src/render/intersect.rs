@@ -2,7 +2,8 @@
 //! unbounded solids (half-spaces) beside it.
 //!
 //! Where the octree's leaves are large (many overlapping spheres), the closest-hit and shadow
-//! queries test lone spheres in groups ([`SphereGroup`]), to the same answers. Elsewhere four
+//! queries test lone spheres in groups ([`SphereGroup`]), to the same answers: the groups the
+//! scene keeps per large leaf ([`Scene::leaf_spheres`]), else groups gathered as the walk goes. Elsewhere four
 //! neighbouring camera rays can find their closest hits together ([`Scene::closest_hits4`]),
 //! each the one it finds alone.
 //!
@@ -134,6 +135,23 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
                 .test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
         }
     }
+
+    #[inline]
+    fn test_leaf(&mut self, start: u32, closest: &mut Closest<PrimitiveHit>) -> Option<u64> {
+        let leaf = self.scene.leaf_spheres.leaf(start)?;
+        let n = self.scene.triangle_points.len() as u32;
+        for &i in leaf.others {
+            if let Some(h) = self.test(i, closest.bound()) {
+                closest.offer(i, h);
+            }
+        }
+        let mut tested = leaf.others.len();
+        for group in leaf.groups {
+            group.test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
+            tested += group.len();
+        }
+        Some(tested as u64)
+    }
 }
 
 /// One shadow query's tests for [`Octree::any_hit_grouped`]: lone spheres in groups, the rest
@@ -180,6 +198,25 @@ impl GroupBlocks for SceneBlocks<'_> {
         let found = found.or_else(|| spheres.blocks(self.ray, self.t_max));
         self.spheres = Some(spheres);
         found
+    }
+
+    #[inline]
+    fn blocks_leaf(&mut self, start: u32) -> Option<(Option<u32>, u64)> {
+        let leaf = self.scene.leaf_spheres.leaf(start)?;
+        let mut tested = 0u64;
+        for &i in leaf.others {
+            tested += 1;
+            if self.blocks(i) {
+                return Some((Some(i), tested));
+            }
+        }
+        for group in leaf.groups {
+            tested += group.len() as u64;
+            if let Some(i) = group.blocks(self.ray, self.t_max) {
+                return Some((Some(i), tested));
+            }
+        }
+        Some((None, tested))
     }
 }
 

@@ -8,6 +8,7 @@ use super::effects::{shadow_ray_matters, Effects};
 use super::error::SceneError;
 use super::model::{Light, SceneDesc, Shader};
 use super::settings::RenderSettings;
+use crate::accel::leaf_spheres::LeafSpheres;
 use crate::accel::light_buffer::LightBuffer;
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
 use crate::geom::solid::extent::SolidExtent;
@@ -58,6 +59,9 @@ pub struct Scene {
     /// as many overlapping spheres do. Where leaves are small (2 to 5 on SPD's other scenes) a
     /// leaf seldom fills a group and the grouped walk cost 2 to 4 % more.
     pub group_spheres: bool,
+    /// Where [`Scene::group_spheres`] holds, the lone spheres of the octree's large leaves in
+    /// their groups (empty otherwise).
+    pub leaf_spheres: LeafSpheres,
     /// Per light, the primitives by direction that its shadow rays test instead of walking the
     /// octree (see [`LightBuffer`]); `None` for a light without shadow rays, in a scene of
     /// fewer than [`LIGHT_BUFFER_MIN`] primitives, where the memory given does not allow it
@@ -80,9 +84,12 @@ impl Scene {
         Scene::build_within(desc, params, u64::MAX)
     }
 
-    /// [`Scene::build`], giving the lights' buffers at most `buffer_memory` bytes: a light gets
-    /// its buffer only while [`light_buffer_peak`] fits in what the earlier lights' buffers
-    /// left (a board's heap, say; its shadow rays then walk the octree, to the same answers).
+    /// [`Scene::build`], giving the lights' buffers and the large leaves' sphere groups at most
+    /// `buffer_memory` bytes (a board's heap, say): a light gets its buffer only while
+    /// [`light_buffer_peak`] fits in what the earlier lights' buffers left (its shadow rays
+    /// then walk the octree), and the groups ([`LeafSpheres`]) are kept only if they fit in what
+    /// the buffers left (the queries then gather them per leaf). Either way the answers are the
+    /// same.
     ///
     /// # Errors
     /// As [`Scene::build`].
@@ -120,6 +127,14 @@ impl Scene {
             extents: &extents,
         };
         let light_buffers = light_buffers(desc, &filed, buffer_memory);
+        let buffers: u64 = light_buffers.iter().flatten().map(LightBuffer::bytes).sum();
+        let leaf_spheres = if group_spheres {
+            let n = triangle_points.len() as u32;
+            let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
+            LeafSpheres::build(&octree, sphere_of, buffer_memory.saturating_sub(buffers))
+        } else {
+            LeafSpheres::default()
+        };
         Ok(Scene {
             light_buffers,
             settings: desc.settings,
@@ -137,6 +152,7 @@ impl Scene {
             effects: Effects::derive(&desc.shaders, &desc.lights, &desc.settings),
             octree,
             group_spheres,
+            leaf_spheres,
         })
     }
 }

@@ -20,7 +20,8 @@
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray
 //!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` and
-//!   `any_hit_grouped` hand a large leaf's primitives to their tests [`GROUP`] at a time.
+//!   `any_hit_grouped` hand a large leaf to their tests whole (where they keep its primitives
+//!   ready, [`GroupTests::test_leaf`]) or [`GROUP`] primitives at a time.
 //! - [`closest_hits4`](Octree::closest_hits4) (in `packet.rs`) walks four neighbouring camera
 //!   rays together, one per vector lane, to the one-ray walk's answers.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
@@ -216,6 +217,18 @@ impl Octree {
     /// The reordered triangle index list that leaves point into.
     pub fn indices(&self) -> &[u32] {
         &self.indices
+    }
+
+    /// Every leaf that holds a primitive, as its start in [`Octree::indices`] and its primitive
+    /// indices, in node order.
+    pub fn leaves(&self) -> impl Iterator<Item = (u32, &[u32])> + '_ {
+        self.nodes
+            .iter()
+            .filter(|n| n.is_leaf() && n.count > 0)
+            .map(|n| {
+                let start = n.first as usize;
+                (n.first, &self.indices[start..start + n.count as usize])
+            })
     }
 }
 

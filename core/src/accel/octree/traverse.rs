@@ -90,6 +90,15 @@ pub trait GroupTests<H> {
     /// hits to `closest`. A hit's `t` must not depend on the bound it was found with, only
     /// whether it is offered.
     fn test_group(&mut self, group: &[u32], closest: &mut Closest<H>);
+    /// Tests every primitive of the leaf whose indices start at `start` in
+    /// [`Octree::indices`], where the tests keep that leaf's primitives ready, and offers
+    /// their hits to `closest`; returns how many it tested, or `None` to be handed the leaf's
+    /// primitives new to the query by [`GroupTests::test_group`] instead.
+    #[inline(always)]
+    fn test_leaf(&mut self, start: u32, closest: &mut Closest<H>) -> Option<u64> {
+        let _ = (start, closest);
+        None
+    }
 }
 
 /// How [`Octree::any_hit_grouped`] tests the primitives of a leaf.
@@ -99,6 +108,14 @@ pub trait GroupBlocks {
     /// A primitive of `group` (at most [`GROUP`], each new to the query) that blocks the ray,
     /// if any.
     fn blocks_group(&mut self, group: &[u32]) -> Option<u32>;
+    /// For the leaf whose indices start at `start` in [`Octree::indices`], where the tests keep
+    /// that leaf's primitives ready: a primitive of it that blocks the ray, if any, and how many
+    /// were tested; `None` to be handed the leaf by [`GroupBlocks::blocks_group`] instead.
+    #[inline(always)]
+    fn blocks_leaf(&mut self, start: u32) -> Option<(Option<u32>, u64)> {
+        let _ = start;
+        None
+    }
 }
 
 /// [`GroupTests`] and [`GroupBlocks`] that test a group one primitive at a time.
@@ -267,7 +284,7 @@ impl Octree {
         let mut mailbox = Mailbox::new();
         let mut tests = self.large.len() as u64;
         // A hit on a large primitive already bounds the walk.
-        work.octree_cells += self.walk(ray, t_max.min(closest.cutoff()), |indices| {
+        work.octree_cells += self.walk(ray, t_max.min(closest.cutoff()), |start, indices| {
             if indices.len() < GROUP {
                 for &i in indices {
                     if mailbox.first_visit(i) {
@@ -279,10 +296,13 @@ impl Octree {
                 }
                 return closest.cutoff();
             }
-            tests += in_groups(indices, &mut mailbox, |group| {
-                tests_of.test_group(group, &mut closest);
-                false
-            });
+            tests += match tests_of.test_leaf(start, &mut closest) {
+                Some(tested) => tested,
+                None => in_groups(indices, &mut mailbox, |group| {
+                    tests_of.test_group(group, &mut closest);
+                    false
+                }),
+            };
             closest.cutoff()
         });
         work.intersection_tests += tests;
@@ -355,13 +375,15 @@ impl Octree {
             return found;
         }
         let mut mailbox = Mailbox::new();
-        work.octree_cells += self.walk(ray, t_max, |indices| {
+        work.octree_cells += self.walk(ray, t_max, |start, indices| {
             if indices.len() < GROUP {
                 found = indices.iter().copied().find(|&i| {
                     let first = mailbox.first_visit(i);
                     tests += u64::from(first);
                     first && tests_of.blocks(i)
                 });
+            } else if let Some((blocker, tested)) = tests_of.blocks_leaf(start) {
+                (found, tests) = (blocker, tests + tested);
             } else {
                 tests += in_groups(indices, &mut mailbox, |group| {
                     found = tests_of.blocks_group(group);
@@ -378,17 +400,17 @@ impl Octree {
         found
     }
 
-    /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's triangle
-    /// indices and returns a cut-off: cells entered beyond it are skipped (`-∞` ends the walk).
-    /// Returns how many cells it entered.
-    fn walk(&self, ray: &Ray, t_max: f32, leaf: impl FnMut(&[u32]) -> f32) -> u64 {
+    /// Visits the non-empty leaves the ray crosses, nearest first. `leaf` gets each leaf's start
+    /// in [`Octree::indices`] and its primitive indices, and returns a cut-off: cells entered
+    /// beyond it are skipped (`-∞` ends the walk). Returns how many cells it entered.
+    fn walk(&self, ray: &Ray, t_max: f32, leaf: impl FnMut(u32, &[u32]) -> f32) -> u64 {
         struct One<'a, F> {
             tree: &'a Octree,
             ray: &'a Ray,
             t_max: f32,
             leaf: F,
         }
-        impl<F: FnMut(&[u32]) -> f32> SizedWalk for One<'_, F> {
+        impl<F: FnMut(u32, &[u32]) -> f32> SizedWalk for One<'_, F> {
             type Out = u64;
             #[inline(always)]
             fn run<const S: usize, const P: usize>(self) -> u64 {
@@ -412,7 +434,7 @@ impl Octree {
         &self,
         ray: &Ray,
         t_max: f32,
-        mut leaf: impl FnMut(&[u32]) -> f32,
+        mut leaf: impl FnMut(u32, &[u32]) -> f32,
     ) -> u64 {
         // One vector division for the three lanes: each lane is the scalar quotient.
         let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir));
@@ -444,7 +466,10 @@ impl Octree {
             let node = self.nodes[e.node as usize];
             if node.is_leaf() {
                 let start = node.first as usize;
-                cutoff = leaf(&self.indices[start..start + node.count as usize]);
+                cutoff = leaf(
+                    node.first,
+                    &self.indices[start..start + node.count as usize],
+                );
                 continue;
             }
             let cell = path.enter(e.depth, e.child, self.root);

@@ -7,16 +7,20 @@
 //! operation (the identity as inverse included), so every hit is the node's to the bit.
 //!
 //! [`SphereGroup`] tests up to [`GROUP`] of them against one ray together: their roots are
-//! computed lane by lane without branches, as `shape.rs`'s `sphere_roots` computes them, and
-//! only those whose nearer root is below the bound go on, one by one, to the error bounds. On
-//! SPD's shells a ray meets hundreds of overlapping spheres in one cell, most of which it
-//! misses or meets behind a closer one; one by one, each such test waited on its divisions and
-//! on a branch the processor could not predict.
+//! computed lane by lane without branches, as `shape.rs`'s `sphere_roots` computes them (the
+//! square roots four at a time, [`sqrt_lanes`]), and only those with a root in front of the
+//! origin and the nearer below the bound go on, one by one, to the error bounds. On SPD's
+//! shells a ray meets hundreds of overlapping spheres in one cell, most of which it misses,
+//! leaves behind it or meets behind a closer one; one by one, each such test waited on its
+//! divisions and on a branch the processor could not predict. A group keeps its spheres lane
+//! by lane, the layout the test reads; the octree's large leaves keep theirs ready
+//! ([`LeafSpheres`](crate::accel::leaf_spheres::LeafSpheres)).
 
 use super::hit::SolidHit;
 use super::shape;
 use super::Shape;
 use crate::geom::hit::{Closest, RayHit, GROUP};
+use crate::math::lanes::sqrt_lanes;
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
 use glam::{Mat3, Vec3};
@@ -63,10 +67,15 @@ impl LoneSphere {
     }
 }
 
-/// Up to [`GROUP`] lone spheres, with their primitive indices, to test against one ray.
+/// Up to [`GROUP`] lone spheres, with their primitive indices, to test against one ray. They are
+/// kept lane by lane (each field of every sphere together), the layout the test reads.
 #[derive(Clone, Copy, Debug)]
 pub struct SphereGroup {
-    spheres: [LoneSphere; GROUP],
+    x: [f32; GROUP],
+    y: [f32; GROUP],
+    z: [f32; GROUP],
+    r: [f32; GROUP],
+    leaf: [u32; GROUP],
     indices: [u32; GROUP],
     len: usize,
 }
@@ -75,11 +84,11 @@ impl SphereGroup {
     /// A group of no spheres.
     pub fn new() -> SphereGroup {
         SphereGroup {
-            spheres: [LoneSphere {
-                centre: Vec3::ZERO,
-                radius: 0.0,
-                leaf: 0,
-            }; GROUP],
+            x: [0.0; GROUP],
+            y: [0.0; GROUP],
+            z: [0.0; GROUP],
+            r: [0.0; GROUP],
+            leaf: [0; GROUP],
             indices: [0; GROUP],
             len: 0,
         }
@@ -94,8 +103,11 @@ impl SphereGroup {
     /// Adds `sphere`, primitive `index`; the group must not be full.
     #[inline]
     pub fn push(&mut self, index: u32, sphere: LoneSphere) {
-        self.spheres[self.len] = sphere;
-        self.indices[self.len] = index;
+        let k = self.len;
+        (self.x[k], self.y[k], self.z[k]) = sphere.centre.into();
+        self.r[k] = sphere.radius;
+        self.leaf[k] = sphere.leaf;
+        self.indices[k] = index;
         self.len += 1;
     }
 
@@ -111,6 +123,31 @@ impl SphereGroup {
         self.len == 0
     }
 
+    /// The primitive indices of the group's spheres, in the order they were added.
+    #[inline]
+    pub fn indices(&self) -> &[u32] {
+        &self.indices[..self.len]
+    }
+
+    /// True if the group holds [`GROUP`] spheres.
+    #[inline]
+    pub fn is_full(&self) -> bool {
+        self.len == GROUP
+    }
+
+    /// The spheres of the group with their primitive indices, in the order they were added.
+    #[inline]
+    fn spheres(&self) -> impl Iterator<Item = (LoneSphere, u32)> + '_ {
+        (0..self.len).map(|k| {
+            let sphere = LoneSphere {
+                centre: Vec3::new(self.x[k], self.y[k], self.z[k]),
+                radius: self.r[k],
+                leaf: self.leaf[k],
+            };
+            (sphere, self.indices[k])
+        })
+    }
+
     /// Tests every sphere of the group against `ray` and offers each hit to `closest`, as
     /// `hit(index, solid_hit)`: the hits [`LoneSphere::first_hit`] reports with the bound
     /// `closest` gives at the time, to the bit.
@@ -123,7 +160,7 @@ impl SphereGroup {
     ) {
         if self.len < GROUP / 2 {
             // Too few to fill the lanes: one by one costs less.
-            for (sphere, &i) in self.spheres.iter().zip(&self.indices).take(self.len) {
+            for (sphere, i) in self.spheres() {
                 if let Some(h) = sphere.first_hit(ray, closest.bound()) {
                     closest.offer(i, hit(i, h));
                 }
@@ -131,19 +168,18 @@ impl SphereGroup {
             return;
         }
         let d = Mat3::IDENTITY * ray.dir;
-        let lanes = Lanes::new(&self.spheres, ray.origin);
+        let lanes = Lanes::new(self, ray.origin);
         let (t0, t1, mut may_hit) = lanes.roots(d, self.len, closest.bound());
         while may_hit != 0 {
             let k = may_hit.trailing_zeros() as usize;
             may_hit &= may_hit - 1;
             let o = Vec3::new(lanes.x[k], lanes.y[k], lanes.z[k]);
-            let sphere = &self.spheres[k];
             let found = shape::first_root_in_front(o, d, (t0[k], t1[k]), closest.bound());
             if let Some((t, t_error, face)) = found {
                 let solid = SolidHit {
                     t,
                     t_error,
-                    leaf: sphere.leaf,
+                    leaf: self.leaf[k],
                     face,
                     flip: false,
                 };
@@ -160,17 +196,17 @@ impl SphereGroup {
     pub fn blocks(&self, ray: &Ray, t_max: f32) -> Option<u32> {
         let blocking = |h: (f32, f32)| h.0 + h.1 < t_max;
         if self.len < GROUP / 2 {
-            let mut pairs = self.spheres.iter().zip(&self.indices).take(self.len);
-            return pairs
+            return self
+                .spheres()
                 .find(|(sphere, _)| {
                     sphere
                         .first_hit(ray, t_max)
                         .is_some_and(|h| blocking((h.t, h.t_error)))
                 })
-                .map(|(_, &i)| i);
+                .map(|(_, i)| i);
         }
         let d = Mat3::IDENTITY * ray.dir;
-        let lanes = Lanes::new(&self.spheres, ray.origin);
+        let lanes = Lanes::new(self, ray.origin);
         let (t0, t1, mut may_hit) = lanes.roots(d, self.len, t_max);
         while may_hit != 0 {
             let k = may_hit.trailing_zeros() as usize;
@@ -200,22 +236,25 @@ struct Lanes {
 }
 
 impl Lanes {
-    /// The lanes of `spheres` for a ray from `origin`: `Mat3::IDENTITY * (origin − centre)`, as
+    /// The lanes of `group` for a ray from `origin`: `Mat3::IDENTITY * (origin − centre)`, as
     /// [`LoneSphere::first_hit`] computes it (the products by 0 and their sums kept).
     #[inline(always)]
-    fn new(spheres: &[LoneSphere; GROUP], origin: Vec3) -> Lanes {
+    fn new(group: &SphereGroup, origin: Vec3) -> Lanes {
         let mut l = Lanes {
             x: [0.0; GROUP],
             y: [0.0; GROUP],
             z: [0.0; GROUP],
-            r: [0.0; GROUP],
+            r: group.r,
         };
-        for (k, sphere) in spheres.iter().enumerate() {
-            let o = origin - sphere.centre;
+        for k in 0..GROUP {
+            let o = Vec3::new(
+                origin.x - group.x[k],
+                origin.y - group.y[k],
+                origin.z - group.z[k],
+            );
             l.x[k] = (o.x + 0.0 * o.y) + 0.0 * o.z;
             l.y[k] = (0.0 * o.x + o.y) + 0.0 * o.z;
             l.z[k] = (0.0 * o.x + 0.0 * o.y) + o.z;
-            l.r[k] = sphere.radius;
         }
         l
     }
@@ -226,8 +265,8 @@ impl Lanes {
     #[inline(always)]
     fn roots(&self, d: Vec3, len: usize, bound: f32) -> ([f32; GROUP], [f32; GROUP], u32) {
         let a = d.dot(d);
-        // Three passes, so the first and the last compile to vector instructions (the square
-        // roots between them are `libm`'s, one lane at a time).
+        // Three passes, so each compiles to vector instructions (the square roots in the middle
+        // are `libm`'s to the bit, four lanes at a time where the processor can).
         let mut b = [0.0f32; GROUP];
         let mut c = [0.0f32; GROUP];
         let mut disc = [0.0f32; GROUP];
@@ -240,7 +279,7 @@ impl Lanes {
             let (fx, fy, fz) = (x - d.x * s, y - d.y * s, z - d.z * s);
             disc[k] = 4.0 * a * (r * r - ((fx * fx + fy * fy) + fz * fz));
         }
-        let root: [f32; GROUP] = core::array::from_fn(|k| libm::sqrtf(disc[k]));
+        let root = sqrt_lanes(disc);
         let mut t0 = [0.0f32; GROUP];
         let mut t1 = [0.0f32; GROUP];
         let mut keep = [false; GROUP];
@@ -257,10 +296,13 @@ impl Lanes {
             };
             (t0[k], t1[k]) = if u <= v { (u, v) } else { (v, u) };
             // As `quadratic` and `first_root_in_front` decide: no roots where the discriminant
-            // is negative or `a` zero, and a NaN nearer root does not stop the test.
+            // is negative or `a` zero, and a NaN nearer root does not stop the test. A root is
+            // in front only if it is above its error bound, which is not negative
+            // (`shape::in_front`), so a sphere with neither root above 0 is behind the origin.
             let before = t0[k] < bound || t0[k].is_nan();
             let roots = (disc[k] >= 0.0 || disc[k].is_nan()) && a != 0.0;
-            keep[k] = roots && before;
+            let ahead = t0[k] > 0.0 || t1[k] > 0.0;
+            keep[k] = roots && before && ahead;
         }
         let mask = keep
             .iter()
@@ -345,6 +387,7 @@ mod tests {
                 rng.range(-3.0, 3.0),
             );
             let mut group = SphereGroup::new();
+            let mut pushed = alloc::vec::Vec::new();
             let len = 1 + (i as usize % GROUP);
             for k in 0..len {
                 let centre = (base + rng.direction() * rng.range(0.0, 0.5)) * scale;
@@ -354,14 +397,15 @@ mod tests {
                 let pl = Placement::new(&Transform::translate(centre));
                 let sphere = LoneSphere::of(&shape, &pl, 40 + k as u32).expect("lone");
                 group.push(100 + k as u32, sphere);
+                pushed.push((100 + k as u32, sphere));
             }
             let Some((ray, t_max)) = ray_near(&mut rng, base * scale, scale, i as usize) else {
                 continue;
             };
             let mut one_by_one = Closest::new(t_max);
-            for k in 0..len {
-                if let Some(h) = group.spheres[k].first_hit(&ray, one_by_one.bound()) {
-                    one_by_one.offer(group.indices[k], h);
+            for (i, sphere) in &pushed {
+                if let Some(h) = sphere.first_hit(&ray, one_by_one.bound()) {
+                    one_by_one.offer(*i, h);
                 }
             }
             let mut together = Closest::new(t_max);

@@ -173,6 +173,11 @@ pub fn first_root_in_front(
         // Both roots are at or past t_max, so whichever is in front is too.
         return None;
     }
+    if !(t0 > 0.0 || t1 > 0.0) {
+        // A root is in front only above its error bound, which is not negative: both are
+        // behind (or NaN), and no bound needs computing.
+        return None;
+    }
     for t in [t0, t1] {
         let t_error = crossing_error(o, d, t);
         if in_front(t, t_error) {
