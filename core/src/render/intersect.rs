@@ -19,7 +19,7 @@ use crate::accel::light_buffer::Candidates;
 use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{closer, Closest, RayHit};
-use crate::geom::solid::lone_sphere::{SphereGroup, SphereRay};
+use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
 use crate::geom::triangle::{intersect, may_hit4, RayFrame, RayFrame4, TriangleHit};
 use crate::math::ray::Ray;
@@ -80,12 +80,11 @@ impl RayHit for PrimitiveHit {
     }
 }
 
-/// What one ray's tests share: the triangle test's frame, the slab test's reciprocal direction
-/// and the lone spheres' form of the ray.
+/// What one ray's tests share: the triangle test's frame and the slab test's reciprocal
+/// direction.
 struct QueryFrame {
     triangles: RayFrame,
     inv_dir: glam::Vec3,
-    spheres: SphereRay,
 }
 
 impl QueryFrame {
@@ -93,7 +92,6 @@ impl QueryFrame {
         QueryFrame {
             triangles: RayFrame::new(ray),
             inv_dir: (glam::Vec3A::ONE / glam::Vec3A::from(ray.dir)).into(),
-            spheres: SphereRay::new(ray),
         }
     }
 }
@@ -245,7 +243,7 @@ impl Scene {
                 .map(|h| PrimitiveHit::Triangle(i, h))
         } else {
             self.solids
-                .first_hit_in_box_from(i - n, ray, &frame.spheres, frame.inv_dir, t_max, spans)
+                .first_hit_in_box(i - n, ray, frame.inv_dir, t_max, spans)
                 .map(|h| PrimitiveHit::Solid(i - n, h))
         }
     }
@@ -308,12 +306,10 @@ impl Scene {
                 let Some(triangle) = self.triangle_points.get(i as usize) else {
                     for l in lanes_of(asked) {
                         let (j, bound) = (i - n, closest[l].bound());
-                        let (ray, frame) = (&rays[l], &frames[l]);
-                        let hit = self.solids.first_hit_in_box_from(
+                        let hit = self.solids.first_hit_in_box(
                             j,
-                            ray,
-                            &frame.spheres,
-                            frame.inv_dir,
+                            &rays[l],
+                            frames[l].inv_dir,
                             bound,
                             spans,
                         );

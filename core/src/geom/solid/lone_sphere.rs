@@ -52,17 +52,11 @@ impl LoneSphere {
     /// [`Solids::first_hit`](super::prepared::Solids::first_hit), to the bit.
     #[inline]
     pub fn first_hit(&self, ray: &Ray, t_max: f32) -> Option<SolidHit> {
-        self.first_hit_from(&SphereRay::new(ray), t_max)
-    }
-
-    /// [`LoneSphere::first_hit`] for the ray `ray` describes.
-    #[inline]
-    pub fn first_hit_from(&self, ray: &SphereRay, t_max: f32) -> Option<SolidHit> {
-        // `Placement::point_to_object` with the identity as inverse: the products by 1 and 0
-        // and their sums are kept, so signed zeros come out as there.
+        // `Placement::point_to_object` and `vector_to_object` with the identity as inverse: the
+        // products by 1 and 0 and their sums are kept, so signed zeros come out as there.
         let o = Mat3::IDENTITY * (ray.origin - self.centre);
-        let (t, t_error, face) =
-            shape::sphere_first_crossing_with(self.radius, o, ray.d, ray.a, t_max)?;
+        let d = Mat3::IDENTITY * ray.dir;
+        let (t, t_error, face) = shape::sphere_first_crossing(self.radius, o, d, t_max)?;
         Some(SolidHit {
             t,
             t_error,
@@ -70,29 +64,6 @@ impl LoneSphere {
             face,
             flip: false,
         })
-    }
-}
-
-/// A ray as every lone sphere's test takes it, computed once per ray: its origin, its direction
-/// as the node's test maps it to object space (`Mat3::IDENTITY * dir`: the products by 0 and
-/// their sums are kept, so signed zeros come out as there) and that direction's squared length.
-#[derive(Clone, Copy, Debug)]
-pub struct SphereRay {
-    origin: Vec3,
-    d: Vec3,
-    a: f32,
-}
-
-impl SphereRay {
-    /// The lone spheres' form of `ray`.
-    #[inline]
-    pub fn new(ray: &Ray) -> SphereRay {
-        let d = Mat3::IDENTITY * ray.dir;
-        SphereRay {
-            origin: ray.origin,
-            d,
-            a: d.dot(d),
-        }
     }
 }
 

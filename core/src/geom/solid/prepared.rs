@@ -7,7 +7,7 @@
 
 use super::extent::{reject_box, reject_margin, SolidExtent};
 pub use super::hit::SolidHit;
-use super::lone_sphere::{LoneSphere, SphereRay};
+use super::lone_sphere::LoneSphere;
 use super::mesh;
 use super::shape;
 use super::spans::{combine, Boundary, Span};
@@ -467,24 +467,6 @@ impl Solids {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<SolidHit> {
-        self.first_hit_in_box_from(object, ray, &SphereRay::new(ray), inv_dir, t_max, scratch)
-    }
-
-    /// [`Solids::first_hit_in_box`] given the lone spheres' form of `ray`, `sphere_ray`
-    /// (computed once for a ray that meets many).
-    #[inline]
-    pub fn first_hit_in_box_from(
-        &self,
-        object: u32,
-        ray: &Ray,
-        sphere_ray: &SphereRay,
-        inv_dir: Vec3,
-        t_max: f32,
-        scratch: &mut SpanScratch,
-    ) -> Option<SolidHit> {
-        if let Some(sphere) = &self.lone_spheres[object as usize] {
-            return sphere.first_hit_from(sphere_ray, t_max);
-        }
         if let Some(b) = &self.reject_boxes[object as usize] {
             b.intersect(ray, inv_dir, t_max)?;
         }

@@ -156,20 +156,7 @@ pub fn sphere_first_crossing(
     d: Vec3,
     t_max: f32,
 ) -> Option<(f32, f32, Face)> {
-    sphere_first_crossing_with(radius, o, d, d.dot(d), t_max)
-}
-
-/// [`sphere_first_crossing`] given `a = d.dot(d)`, computed once for a ray that meets many
-/// spheres (the same value, so the same answer to the bit).
-#[inline(always)]
-pub fn sphere_first_crossing_with(
-    radius: f32,
-    o: Vec3,
-    d: Vec3,
-    a: f32,
-    t_max: f32,
-) -> Option<(f32, f32, Face)> {
-    let roots = sphere_roots_with(radius, o, d, a)?;
+    let roots = sphere_roots(radius, o, d)?;
     first_root_in_front(o, d, roots, t_max)
 }
 
@@ -204,12 +191,7 @@ pub fn first_root_in_front(
 /// `lone_sphere.rs` computes the same for several spheres at once, operation for operation.
 #[inline]
 fn sphere_roots(r: f32, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
-    sphere_roots_with(r, o, d, d.dot(d))
-}
-
-/// [`sphere_roots`] given `a = d.dot(d)`.
-#[inline(always)]
-fn sphere_roots_with(r: f32, o: Vec3, d: Vec3, a: f32) -> Option<(f32, f32)> {
+    let a = d.dot(d);
     let b = 2.0 * o.dot(d);
     let c = o.dot(o) - r * r;
     // The discriminant from the distance of the centre to the line (pbrt-v4): no cancellation
