@@ -3,9 +3,9 @@
 //!
 //! Where the octree's leaves are large (many overlapping spheres), the closest-hit and shadow
 //! queries test lone spheres in groups ([`SphereGroup`]), to the same answers: the groups the
-//! scene keeps per large leaf ([`Scene::leaf_spheres`]), else groups gathered as the walk goes. Elsewhere four
-//! neighbouring camera rays can find their closest hits together ([`Scene::closest_hits4`]),
-//! each the one it finds alone.
+//! scene keeps per large leaf ([`Scene::leaf_spheres`]), else groups gathered as the walk
+//! goes. Elsewhere four neighbouring camera rays can find their closest hits together
+//! ([`Scene::closest_hits4`]), each the one it finds alone.
 //!
 //! Shadow rays towards a light with a light buffer test the primitives it lists for their
 //! direction instead of walking the octree ([`Scene::shadowed`]).
