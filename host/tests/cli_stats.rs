@@ -298,3 +298,43 @@ fn work_counts_are_the_same_for_any_worker_count_and_match_their_per_ray_figures
     );
     Ok(())
 }
+
+/// An NFF scene of `n` balls along a shrinking spiral, each overlapping hundreds of its
+/// neighbours (as SPD's shells), in front of the camera.
+fn spiral_of_balls(n: usize) -> String {
+    let mut nff = String::from(
+        "v\nfrom 0 -12 3\nat 0 0 3\nup 0 0 1\nangle 40\nhither 0.01\nresolution 32 24\n\
+         b 0 0 0\nl 5 -10 10\nf 0.8 0.6 0.3 0.8 0.2 20 0 1\n",
+    );
+    for k in 0..n {
+        let a = k as f32 * 0.004;
+        let grow = 1.0 - k as f32 / (n as f32 + 100.0);
+        let (x, y, z) = ((a * 6.0).cos() * grow, (a * 6.0).sin() * grow, a * grow);
+        nff.push_str(&format!("s {x} {y} {z} {}\n", 0.4 * grow));
+    }
+    nff
+}
+
+#[test]
+fn sphere_groups_are_reported_beside_the_octree() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let (_, room) = render_with_stats(dir.path(), "room", &[])?;
+    assert_eq!(
+        uint(&room, &["octree", "sphere_group_bytes"]),
+        0,
+        "{room:#}"
+    );
+    let scene = dir.path().join("spiral.nff");
+    std::fs::write(&scene, spiral_of_balls(1500))?;
+    let out = Command::new(env!("CARGO_BIN_EXE_strahl"))
+        .current_dir(dir.path())
+        .args(["render", "spiral.nff", "--quiet", "--workers", "1"])
+        .args(["-o", "spiral.bmp", "--stats-json", "spiral.json"])
+        .output()?;
+    assert_success(&out);
+    let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("spiral.json"))?)?;
+    // At least one group of 16 spheres (392 bytes with its indices) in a large leaf.
+    let groups = uint(&s, &["octree", "sphere_group_bytes"]);
+    assert!(groups >= 392, "{s:#}");
+    Ok(())
+}

@@ -595,6 +595,7 @@ fn report(
         triangles: scene.triangle_points.len(),
         solids: scene.solids.len(),
         octree: *scene.octree.stats(),
+        sphere_groups: scene.leaf_spheres.bytes(),
         rays: image.rays,
         workers: image.workers.len(),
         workers_lost: image.workers.iter().filter(|w| w.lost.is_some()).count(),

@@ -35,6 +35,8 @@ pub struct RenderSummary {
     pub solids: usize,
     /// The octree's statistics.
     pub octree: OctreeStats,
+    /// Bytes of the sphere groups kept for the octree's large leaves (0 where there are none).
+    pub sphere_groups: usize,
     /// Rays traced.
     pub rays: RayCounts,
     /// Workers that joined.
@@ -257,10 +259,14 @@ pub struct StatsOctree {
     pub bytes: usize,
     /// Those bytes per primitive given to the build.
     pub bytes_per_primitive: f32,
+    /// Bytes of the sphere groups kept beside the tree for its large leaves (scenes of many
+    /// overlapping spheres; 0 elsewhere), not in `bytes`.
+    pub sphere_group_bytes: usize,
 }
 
-impl From<&OctreeStats> for StatsOctree {
-    fn from(o: &OctreeStats) -> StatsOctree {
+impl StatsOctree {
+    /// The figures of an octree with `sphere_group_bytes` of sphere groups beside it.
+    fn new(o: &OctreeStats, sphere_group_bytes: usize) -> StatsOctree {
         StatsOctree {
             nodes: o.nodes,
             leaves: o.leaves,
@@ -269,6 +275,7 @@ impl From<&OctreeStats> for StatsOctree {
             references: o.references,
             bytes: o.bytes,
             bytes_per_primitive: o.bytes_per_triangle(),
+            sphere_group_bytes,
         }
     }
 }
@@ -318,7 +325,7 @@ impl RenderStats {
                 total: summary.rays.total(),
             },
             work: StatsWork::new(&summary.rays),
-            octree: StatsOctree::from(&summary.octree),
+            octree: StatsOctree::new(&summary.octree, summary.sphere_groups),
             peak_memory_bytes: summary.peak_memory,
             workers: workers
                 .iter()
@@ -358,6 +365,7 @@ mod tests {
                 depth: 9,
                 ..OctreeStats::default()
             },
+            sphere_groups: 0,
             rays: RayCounts {
                 primary: 307_200,
                 shadow: 123,
