@@ -13,6 +13,7 @@
 
 use crate::accel::octree::{Octree, GROUP};
 use crate::geom::solid::lone_sphere::{LoneSphere, SphereGroup};
+use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
 
 /// The large leaves' lone spheres in groups, and their other primitives.
@@ -23,6 +24,8 @@ pub struct LeafSpheres {
     /// next.others]`.
     leaves: Vec<LeafEntry>,
     groups: Vec<SphereGroup>,
+    /// Per group, where its spheres can report a hit ([`SphereGroup::reach`]).
+    reach: Vec<Aabb>,
     others: Vec<u32>,
 }
 
@@ -39,6 +42,8 @@ struct LeafEntry {
 pub struct LeafPrimitives<'a> {
     /// The lone spheres, [`GROUP`] to a group but the last, in the leaf's order.
     pub groups: &'a [SphereGroup],
+    /// Per group, where its spheres can report a hit.
+    pub reach: &'a [Aabb],
     /// The primitives that are not lone spheres, in the leaf's order.
     pub others: &'a [u32],
 }
@@ -66,6 +71,7 @@ impl LeafSpheres {
         let mut all = LeafSpheres {
             leaves: Vec::with_capacity(leaves),
             groups: Vec::with_capacity(groups),
+            reach: Vec::with_capacity(groups),
             others: Vec::with_capacity(others),
         };
         for (start, indices) in large() {
@@ -78,16 +84,21 @@ impl LeafSpheres {
                 };
                 group.push(i, sphere);
                 if group.is_full() {
-                    all.groups.push(group);
+                    all.push_group(&group);
                     group.clear();
                 }
             }
             if !group.is_empty() {
-                all.groups.push(group);
+                all.push_group(&group);
             }
         }
         all.push_entry(u32::MAX);
         all
+    }
+
+    fn push_group(&mut self, group: &SphereGroup) {
+        self.groups.push(*group);
+        self.reach.push(group.reach());
     }
 
     fn push_entry(&mut self, start: u32) {
@@ -106,6 +117,7 @@ impl LeafSpheres {
         let (this, next) = (self.leaves[e], *self.leaves.get(e + 1)?);
         Some(LeafPrimitives {
             groups: &self.groups[this.groups as usize..next.groups as usize],
+            reach: &self.reach[this.groups as usize..next.groups as usize],
             others: &self.others[this.others as usize..next.others as usize],
         })
     }
@@ -119,7 +131,7 @@ impl LeafSpheres {
     fn bytes_of(leaves: usize, groups: usize, others: usize) -> usize {
         use core::mem::size_of;
         leaves * size_of::<LeafEntry>()
-            + groups * size_of::<SphereGroup>()
+            + groups * (size_of::<SphereGroup>() + size_of::<Aabb>())
             + others * size_of::<u32>()
     }
 

@@ -42,6 +42,15 @@ impl Aabb {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// The box grown by `m` on every side.
+    #[inline]
+    pub fn grown(&self, m: f32) -> Aabb {
+        Aabb {
+            min: self.min - Vec3::splat(m),
+            max: self.max + Vec3::splat(m),
+        }
+    }
+
     /// The centre point.
     #[inline]
     pub fn center(&self) -> Vec3 {

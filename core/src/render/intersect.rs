@@ -22,6 +22,7 @@ use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
 use crate::geom::triangle::{intersect, may_hit4, RayFrame, RayFrame4, TriangleHit};
+use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::scene::Scene;
 
@@ -146,9 +147,16 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
             }
         }
         let mut tested = leaf.others.len();
-        for group in leaf.groups {
-            group.test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
-            tested += group.len();
+        let grow = origin_reach(self.ray);
+        for (group, reach) in leaf.groups.iter().zip(leaf.reach) {
+            let reach = reach.grown(grow);
+            if reach
+                .intersect(self.ray, self.frame.inv_dir, closest.bound())
+                .is_some()
+            {
+                group.test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
+                tested += group.len();
+            }
         }
         Some(tested as u64)
     }
@@ -210,7 +218,15 @@ impl GroupBlocks for SceneBlocks<'_> {
                 return Some((Some(i), tested));
             }
         }
-        for group in leaf.groups {
+        let grow = origin_reach(self.ray);
+        for (group, reach) in leaf.groups.iter().zip(leaf.reach) {
+            if reach
+                .grown(grow)
+                .intersect(self.ray, self.frame.inv_dir, self.t_max)
+                .is_none()
+            {
+                continue;
+            }
             tested += group.len() as u64;
             if let Some(i) = group.blocks(self.ray, self.t_max) {
                 return Some((Some(i), tested));
@@ -218,6 +234,16 @@ impl GroupBlocks for SceneBlocks<'_> {
         }
         Some((None, tested))
     }
+}
+
+/// How much further than a sphere group's reach ([`SphereGroup::reach`]) a sphere test of `ray`
+/// can report a hit, in world units. The test rounds the ray's offset from each centre, so its
+/// hits stray from the sphere by a few roundings of that offset's size: the reach's margin
+/// covers the centre's and the sphere's share, this the origin's (`gamma(32)`, twice the
+/// roundings of a crossing's error bound, of twice the origin's largest coordinate).
+#[inline]
+fn origin_reach(ray: &Ray) -> f32 {
+    gamma(32) * 2.0 * ray.origin.abs().max_element()
 }
 
 impl Scene {

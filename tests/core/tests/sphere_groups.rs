@@ -226,3 +226,40 @@ fn grouped_shadow_rays_are_blocked_as_one_by_one() {
         "{blocked} blocked, {free} free"
     );
 }
+
+/// Rays from far away (10³ to 10⁵ units) that graze the shell's balls, where the sphere test's
+/// rounding is largest: the groups' reach (a box around their spheres, skipped where a ray
+/// misses it) must never drop a hit or a blocker that testing one by one finds.
+#[test]
+fn grazing_rays_from_far_away_find_what_one_by_one_finds() {
+    let mut rng = Rng::new(31);
+    let (grouped, _, single) = grouped_and_single(&mut rng);
+    let mut scratch = QueryScratch::default();
+    let (mut hits, mut blocked) = (0, 0);
+    for i in 0..20_000 {
+        // A ball of the spiral, seen from far off along a random direction, aimed at its rim.
+        let k = (rng.next_u64() % 1500) as f32;
+        let a = k * 0.004;
+        let grow = 1.0 - k / 1600.0;
+        let centre = Vec3::new((a * 6.0).cos(), (a * 6.0).sin(), a) * grow;
+        let radius = 0.4 * grow;
+        let towards = rng.direction();
+        let across = towards.any_orthonormal_vector();
+        let rim = centre + across * radius * rng.range(0.999, 1.001);
+        let origin = rim - towards * 10f32.powf(rng.range(3.0, 5.0));
+        let ray = Ray::new(origin, rim - origin);
+        let expected = single.closest_hit(&ray, f32::INFINITY, &mut scratch);
+        let got = grouped.closest_hit(&ray, f32::INFINITY, &mut scratch);
+        assert_eq!(key(got), key(expected), "ray {i}: {ray:?}");
+        hits += usize::from(expected.is_some());
+        let (mut last, mut last_single) = (ShadowMemory::default(), ShadowMemory::default());
+        let shadow = grouped.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, None));
+        let one = single.shadowed(&ray, 1.0, &mut scratch, (None, &mut last_single, None));
+        assert_eq!(shadow, one, "shadow ray {i}: {ray:?}");
+        blocked += usize::from(one);
+    }
+    assert!(
+        hits > 5_000 && blocked > 5_000,
+        "{hits} hits, {blocked} blocked"
+    );
+}

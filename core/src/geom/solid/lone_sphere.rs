@@ -16,10 +16,12 @@
 //! by lane, the layout the test reads; the octree's large leaves keep theirs ready
 //! ([`LeafSpheres`](crate::accel::leaf_spheres::LeafSpheres)).
 
+use super::extent::reject_box;
 use super::hit::SolidHit;
 use super::shape;
 use super::Shape;
 use crate::geom::hit::{Closest, RayHit, GROUP};
+use crate::math::aabb::Aabb;
 use crate::math::lanes::sqrt_lanes;
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
@@ -133,6 +135,23 @@ impl SphereGroup {
     #[inline]
     pub fn is_full(&self) -> bool {
         self.len == GROUP
+    }
+
+    /// Where a sphere of the group can report a hit: the box around the spheres' reject boxes
+    /// ([`reject_box`] of each one's world box), so a ray that misses it within `[0, t_max]`
+    /// gets no hit below `t_max` from any of them.
+    pub fn reach(&self) -> Aabb {
+        self.spheres().fold(Aabb::EMPTY, |all, (sphere, _)| {
+            let r = Vec3::splat(sphere.radius);
+            let b = reject_box(&Aabb {
+                min: sphere.centre - r,
+                max: sphere.centre + r,
+            });
+            Aabb {
+                min: all.min.min(b.min),
+                max: all.max.max(b.max),
+            }
+        })
     }
 
     /// The spheres of the group with their primitive indices, in the order they were added.
