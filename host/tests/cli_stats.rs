@@ -333,7 +333,7 @@ fn sphere_groups_are_reported_beside_the_octree() -> TestResult {
         .output()?;
     assert_success(&out);
     let s: Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("spiral.json"))?)?;
-    // At least one group of 16 spheres (392 bytes with its indices) in a large leaf.
+    // At least one group of 16 spheres (392 bytes with its indices, besides its box).
     let groups = uint(&s, &["octree", "sphere_group_bytes"]);
     assert!(groups >= 392, "{s:#}");
     Ok(())
