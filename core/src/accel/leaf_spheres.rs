@@ -7,6 +7,10 @@
 //! groups lie ready in leaf order, next to the leaf's other primitives, and a query finds them
 //! by the leaf's start in [`Octree::indices`] (binary search over the large leaves).
 //!
+//! Each group keeps its reach ([`SphereGroup::reach`]), a box around its spheres: a query skips
+//! a group whose reach its ray misses (`render/intersect.rs`), as a solid's reject box lets it
+//! skip the solid.
+//!
 //! A leaf's primitives are all tested each time the walk enters it, without the mailbox: a
 //! sphere filed in several cells the ray crosses is tested again, which changes no answer (a
 //! test's hit does not depend on its bound, and offering the same hit twice keeps the first).
