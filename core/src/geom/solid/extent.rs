@@ -79,9 +79,5 @@ pub fn reject_margin(b: &Aabb) -> f32 {
 
 /// `b` grown by [`REJECT_MARGIN`]: the object's reject box.
 pub fn reject_box(b: &Aabb) -> Aabb {
-    let m = Vec3::splat(reject_margin(b));
-    Aabb {
-        min: b.min - m,
-        max: b.max + m,
-    }
+    b.grown(reject_margin(b))
 }

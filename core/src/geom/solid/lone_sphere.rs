@@ -141,17 +141,17 @@ impl SphereGroup {
     /// ([`reject_box`] of each one's world box), so a ray that misses it within `[0, t_max]`
     /// gets no hit below `t_max` from any of them.
     pub fn reach(&self) -> Aabb {
-        self.spheres().fold(Aabb::EMPTY, |all, (sphere, _)| {
+        let mut all = Aabb::EMPTY;
+        for (sphere, _) in self.spheres() {
             let r = Vec3::splat(sphere.radius);
             let b = reject_box(&Aabb {
                 min: sphere.centre - r,
                 max: sphere.centre + r,
             });
-            Aabb {
-                min: all.min.min(b.min),
-                max: all.max.max(b.max),
-            }
-        })
+            all.add_point(b.min);
+            all.add_point(b.max);
+        }
+        all
     }
 
     /// The spheres of the group with their primitive indices, in the order they were added.
