@@ -13,6 +13,8 @@
 //! - [`prepared`] is the render-time form: placements inverted once, world bounds, and the queries
 //!   the octree and the shader use.
 //! - [`hit`] is what every solid query returns: where the ray first meets the object.
+//! - [`sphere_miss`] tells a sure miss of a sphere without a division, under an error bound
+//!   that makes it agree with [`shape`]'s test.
 //! - [`lone_sphere`] tests a sphere object that is only translated without reading its node.
 //! - [`extent`] says where an object can be hit (nowhere bounded, a box, or a sphere's surface),
 //!   which is what the octree files it by.
@@ -24,6 +26,7 @@ pub mod mesh;
 pub mod prepared;
 pub mod shape;
 pub mod spans;
+pub mod sphere_miss;
 
 use crate::math::transform::Transform;
 use glam::Vec3;

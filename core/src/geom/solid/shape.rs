@@ -6,6 +6,7 @@
 //! [`surface`] puts a hit back on the exact surface (pbrt-v4's re-projection) with the error bound
 //! of the point, and [`normal`] gives the outward normal of a face.
 
+use super::sphere_miss::surely_misses;
 use super::Shape;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
@@ -191,6 +192,10 @@ pub fn first_root_in_front(
 /// `lone_sphere.rs` computes the same for several spheres at once, operation for operation.
 #[inline]
 fn sphere_roots(r: f32, o: Vec3, d: Vec3) -> Option<(f32, f32)> {
+    if surely_misses(r, o, d) {
+        // What the distance form below finds too, without its division.
+        return None;
+    }
     let a = d.dot(d);
     let b = 2.0 * o.dot(d);
     let c = o.dot(o) - r * r;
