@@ -76,7 +76,8 @@ pub fn section(facts: &RunFacts, rows: &[PeerRow]) -> String {
          - **rays**: Strahl's `rays.total`; POV-Ray's `Rays` (camera, reflected, refracted and \
          transmitted rays) plus its `Shadow Ray Tests`. By kind in the second table.\n\
          - **tests/ray, cells/ray, octree depth, octree bytes**: Strahl's `--stats-json` (`work`, \
-         `octree`); `-` where it does not report them.\n\
+         `octree`); `-` where it does not report them. Where a scene keeps sphere groups for the \
+         octree's large leaves (`octree.sphere_group_bytes`), their bytes follow the octree's.\n\
          - **MAD R/G/B**: mean absolute difference of each 8-bit channel between the two \
          one-thread images.\n\n",
         d = f.depth

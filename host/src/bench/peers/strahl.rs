@@ -24,6 +24,8 @@ pub struct OctreeShape {
     pub depth: Option<u64>,
     /// Bytes it takes.
     pub bytes: Option<u64>,
+    /// Bytes of the sphere groups kept beside it for its large leaves.
+    pub group_bytes: Option<u64>,
 }
 
 /// What one Strahl render reported.
@@ -101,6 +103,7 @@ pub fn parse_stats(json: &str) -> anyhow::Result<StrahlReport> {
         octree: OctreeShape {
             depth: count(&["octree", "depth"]),
             bytes: count(&["octree", "bytes"]),
+            group_bytes: count(&["octree", "sphere_group_bytes"]),
         },
     })
 }
@@ -128,13 +131,14 @@ mod tests {
             "work": {"intersection_tests": 120, "octree_cells": 60, "tests_per_ray": 10.0,
                      "cells_per_ray": 5.0},
             "octree": {"nodes": 9, "leaves": 8, "depth": 3, "references": 40, "bytes": 4096,
-                       "bytes_per_primitive": 12.5}}"#;
+                       "bytes_per_primitive": 12.5, "sphere_group_bytes": 392}}"#;
         let r = parse_stats(json).expect("statistics");
         assert_eq!(r.rays.refracted, 2);
         assert_eq!(r.work.tests_per_ray, Some(10.0));
         assert_eq!(r.work.cells_per_ray, Some(5.0));
         assert_eq!(r.octree.depth, Some(3));
         assert_eq!(r.octree.bytes, Some(4096));
+        assert_eq!(r.octree.group_bytes, Some(392));
     }
 
     #[test]

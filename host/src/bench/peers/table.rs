@@ -7,6 +7,7 @@
 
 use super::measure::SceneMeasure;
 use super::rays::RaysByKind;
+use super::strahl::OctreeShape;
 use crate::util::units::format_bytes;
 use std::fmt::Write as _;
 
@@ -59,6 +60,16 @@ fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "-".to_string(), |v| format!("{v:.2}"))
 }
 
+/// The octree's bytes, with the sphere groups beside it where there are any; `-` if absent.
+fn octree_bytes(o: &OctreeShape) -> String {
+    let bytes = |b: u64| format_bytes(usize::try_from(b).unwrap_or(usize::MAX));
+    match (o.bytes, o.group_bytes) {
+        (None, _) => "-".to_string(),
+        (Some(b), Some(g)) if g > 0 => format!("{} + {} groups", bytes(b), bytes(g)),
+        (Some(b), _) => bytes(b),
+    }
+}
+
 /// Strahl's and POV-Ray's counts of one kind.
 fn pair(s: u64, p: u64) -> String {
     format!("{} / {}", fmt_count(s), fmt_count(p))
@@ -69,7 +80,7 @@ pub fn comparison_table(rows: &[PeerRow]) -> String {
     let mut t = String::from(
         "| scene | POV-Ray trace s | Strahl trace s | ratio | POV-Ray whole s | Strahl whole s \
          | ratio | rays Strahl / POV-Ray (total) | tests/ray | cells/ray | octree depth \
-         | octree bytes | MAD R/G/B |\n\
+         | octree bytes (+ sphere groups) | MAD R/G/B |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
@@ -89,10 +100,7 @@ pub fn comparison_table(rows: &[PeerRow]) -> String {
             fmt_opt(m.strahl.work.tests_per_ray),
             fmt_opt(m.strahl.work.cells_per_ray),
             o.depth.map_or_else(|| "-".to_string(), |d| d.to_string()),
-            o.bytes.map_or_else(
-                || "-".to_string(),
-                |b| format_bytes(usize::try_from(b).unwrap_or(usize::MAX))
-            ),
+            octree_bytes(o),
             r.mad[0],
             r.mad[1],
             r.mad[2],
@@ -127,7 +135,7 @@ pub fn rays_table(rows: &[PeerRow]) -> String {
 mod tests {
     use super::*;
     use crate::bench::peers::povray::PovrayReport;
-    use crate::bench::peers::strahl::{OctreeShape, StrahlReport, Work};
+    use crate::bench::peers::strahl::{StrahlReport, Work};
     use std::path::PathBuf;
 
     fn row() -> PeerRow {
@@ -153,6 +161,7 @@ mod tests {
                     octree: OctreeShape {
                         depth: Some(7),
                         bytes: Some(2048),
+                        group_bytes: Some(0),
                     },
                 },
                 povray: PovrayReport {
@@ -176,6 +185,15 @@ mod tests {
             line,
             "| tiny | 0.250 | 0.500 | 2.00 | 0.000 | 1.000 | - | 3,000 / 1,500 | 3.46 | - | 7 \
              | 2.0 KiB | 1.00 / 0.50 / 12.35 |"
+        );
+        let mut grouped = row();
+        grouped.measure.strahl.octree.group_bytes = Some(4096);
+        let t = comparison_table(&[grouped]);
+        assert!(
+            t.lines()
+                .nth(2)
+                .is_some_and(|l| l.contains("| 2.0 KiB + 4.0 KiB groups |")),
+            "{t}"
         );
         let r = rays_table(&[row()]);
         assert_eq!(
