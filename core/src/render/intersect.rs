@@ -22,6 +22,7 @@ use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
 use crate::geom::triangle::{intersect, may_hit4, RayFrame, RayFrame4, TriangleHit};
+use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::scene::Scene;
@@ -149,11 +150,7 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
         let mut tested = leaf.others.len();
         let grow = origin_reach(self.ray);
         for (group, reach) in leaf.groups.iter().zip(leaf.reach) {
-            let reach = reach.grown(grow);
-            if reach
-                .intersect(self.ray, self.frame.inv_dir, closest.bound())
-                .is_some()
-            {
+            if may_reach(reach, grow, self.ray, self.frame, closest.bound()) {
                 group.test(self.ray, closest, |i, h| PrimitiveHit::Solid(i - n, h));
                 tested += group.len();
             }
@@ -220,11 +217,7 @@ impl GroupBlocks for SceneBlocks<'_> {
         }
         let grow = origin_reach(self.ray);
         for (group, reach) in leaf.groups.iter().zip(leaf.reach) {
-            if reach
-                .grown(grow)
-                .intersect(self.ray, self.frame.inv_dir, self.t_max)
-                .is_none()
-            {
+            if !may_reach(reach, grow, self.ray, self.frame, self.t_max) {
                 continue;
             }
             tested += group.len() as u64;
@@ -244,6 +237,17 @@ impl GroupBlocks for SceneBlocks<'_> {
 #[inline]
 fn origin_reach(ray: &Ray) -> f32 {
     gamma(32) * 2.0 * ray.origin.abs().max_element()
+}
+
+/// True unless `ray` provably gets no hit below `t_max` from the sphere group whose reach is
+/// `reach`: the reach grown by `grow` ([`origin_reach`] of the ray) meets the ray within
+/// `[0, t_max]`.
+#[inline(always)]
+fn may_reach(reach: &Aabb, grow: f32, ray: &Ray, frame: &QueryFrame, t_max: f32) -> bool {
+    reach
+        .grown(grow)
+        .intersect(ray, frame.inv_dir, t_max)
+        .is_some()
 }
 
 impl Scene {

@@ -21,8 +21,10 @@
 //!   `A·(F − r²)`.
 //! - So `X > γ(69)·M` implies `F − r² > γ(48)·(S + r²)`. The computed `M` is at least
 //!   `(1 − γ(6))` of the exact one, and [`surely_misses`] asks `X > γ(128)·M` of the computed
-//!   values: above what is needed, and the cost is only that rays within some 10⁻⁵ of the rim
-//!   take the full test.
+//!   values: above what is needed. The cost is that rays near the rim take the full test:
+//!   within some 10⁻⁵ of the radius from close by, and more from far away, since `X` is
+//!   compared with `|o|²` (a ray from `n` radii away is answered only beyond about
+//!   `γ(128)·n²/2` of the radius outside the rim).
 //! - The argument is about normal numbers. Both `a` and `o·o + r*r` must be at least 2⁻⁶⁰: an
 //!   underflowing product is then off by at most 2⁻¹⁵⁰, far below `γ(1)·M`. Infinities and NaN
 //!   fail the comparison (`X > bound` with `X` or the bound infinite or NaN is false), so the full
