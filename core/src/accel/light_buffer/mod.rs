@@ -26,10 +26,15 @@
 //! for a lone cylinder or cone): the triangle test's known `f32` exception for rays grazing a
 //! face from far away (see [`crate::accel::octree`]) applies here too.
 //!
-//! Where a cell lists more than [`CELL_LIMIT`] primitives the query says [`Candidates::Walk`].
+//! Where a cell lists more than [`CELL_LIMIT`] primitives it may be split: gridded again,
+//! finer, over that cell alone (the `split` module), where its primitives are small against it. A query
+//! in a crowded cell that is not split, or in a sub-cell still over the limit, says
+//! [`Candidates::Walk`].
 //! A light gets no buffer where over a third of its occupied cells are such cells (primitives
 //! crowd around it, and the walk is as short as a list), or where the buffer would outgrow its
 //! budget even with coarse cells.
+
+mod split;
 
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
@@ -39,6 +44,7 @@ use alloc::vec;
 use alloc::vec::Vec;
 use core::mem::size_of;
 use glam::Vec3;
+use split::Splits;
 
 /// A cell with more primitives than this sends its queries through the octree walk.
 pub const CELL_LIMIT: usize = 64;
@@ -59,6 +65,11 @@ const FILED: usize = 256;
 /// The index of the one entry a cell over [`CELL_LIMIT`] keeps: "walk the octree". No
 /// primitive has it (indices are below the number of primitives, itself a `u32`).
 const WALK: u32 = u32::MAX;
+
+/// The one entry a split cell keeps is `SPLIT + k`, for its grid `k` in
+/// [`LightBuffer::splits`]; primitive indices are below it (the build takes fewer
+/// primitives) and split indices far below `WALK − SPLIT`.
+const SPLIT: u32 = 1 << 31;
 
 /// True where over a third of the occupied cells are over [`CELL_LIMIT`]: primitives so
 /// crowded around the light (SPD's gears and shells: 44 and 73 %) that the octree walk is as
@@ -162,7 +173,10 @@ pub struct LightBuffer {
     /// The largest `|o − L|` on any axis a query may have.
     reach: f32,
     faces: [Option<Grid>; 6],
-    /// Per cell, the start of its entries; one more at the end.
+    /// The split cells' grids, whose `first` is their first sub-cell in `starts` (after the
+    /// faces' cells).
+    splits: Vec<Grid>,
+    /// Per cell, then per sub-cell, the start of its entries; one more at the end.
     starts: Vec<u32>,
     entries: Vec<Entry>,
 }
@@ -181,7 +195,7 @@ impl LightBuffer {
         triangles: &[[Vec3; 3]],
         solids: &[SolidExtent],
     ) -> Option<LightBuffer> {
-        if bounds.is_empty() {
+        if bounds.is_empty() || triangles.len() + solids.len() >= SPLIT as usize {
             return None;
         }
         let reach = 2.0
@@ -202,8 +216,8 @@ impl LightBuffer {
                 core::array::from_fn(|f| grid_over(&footprints[f], density));
             let (cells, filed) = count(&mut faces, &footprints);
             if filed <= filed_budget + cells {
-                let mut counts = vec![0u32; cells + 1];
-                each_cell(&faces, &footprints, |cell, _| {
+                let mut counts = vec![0u32; cells];
+                each_cell(&faces, &footprints, |cell, _, _| {
                     counts[cell] = counts[cell].saturating_add(1)
                 });
                 if mostly_walks(&counts) {
@@ -211,14 +225,16 @@ impl LightBuffer {
                 }
                 let kept: usize = counts.iter().map(|&n| kept_in(n) as usize).sum();
                 if kept <= kept_budget + cells {
+                    let splits = split::plan(&faces, &footprints, &counts, shapes.len());
                     let mut buffer = LightBuffer {
                         light,
                         reach,
                         faces,
+                        splits: Vec::new(),
                         starts: Vec::new(),
                         entries: Vec::new(),
                     };
-                    buffer.fill(&footprints, counts);
+                    buffer.fill(&footprints, counts, splits);
                     return Some(buffer);
                 }
             }
@@ -227,28 +243,45 @@ impl LightBuffer {
         None
     }
 
-    /// Files every footprint in its cells (`counts` per cell) and sorts each cell nearest first
-    /// (ties by index); a cell over [`CELL_LIMIT`] keeps only the [`WALK`] mark.
-    fn fill(&mut self, footprints: &[Vec<(u32, Footprint)>; 6], counts: Vec<u32>) {
-        let mut starts = Vec::with_capacity(counts.len());
+    /// Files every footprint in its cells (`counts` per cell) and the split cells' sub-cells,
+    /// and sorts each cell nearest first (ties by index). A split cell keeps only its
+    /// [`SPLIT`] mark, another cell or sub-cell over [`CELL_LIMIT`] only the [`WALK`] mark.
+    fn fill(&mut self, footprints: &[Vec<(u32, Footprint)>; 6], counts: Vec<u32>, splits: Splits) {
+        let cells = counts.len();
+        let mut starts = Vec::with_capacity(cells + splits.counts.len() + 1);
         let mut start = 0u32;
-        for &n in &counts {
+        for &n in counts.iter().chain(&splits.counts) {
             starts.push(start);
             start += kept_in(n);
         }
-        let walk = Entry {
+        starts.push(start);
+        let mark = |index| Entry {
             near: f32::NEG_INFINITY,
-            index: WALK,
+            index,
         };
-        self.entries = vec![walk; start as usize];
+        self.entries = vec![mark(WALK); start as usize];
+        for (k, &cell) in splits.cells.iter().enumerate() {
+            self.entries[starts[cell as usize] as usize] = mark(SPLIT + k as u32);
+        }
         let mut next = starts.clone();
         let entries = &mut self.entries;
-        each_cell(&self.faces, footprints, |cell, entry| {
-            if counts[cell] as usize <= CELL_LIMIT {
-                entries[next[cell] as usize] = entry;
+        let mut file = |cell: usize, n: u32, index, print: &Footprint| {
+            if n as usize <= CELL_LIMIT {
+                let near = print.near;
+                entries[next[cell] as usize] = Entry { near, index };
                 next[cell] += 1;
             }
+        };
+        each_cell(&self.faces, footprints, |cell, index, print| {
+            file(cell, counts[cell], index, print)
         });
+        splits.each_sub_cell(&self.faces, footprints, &counts, |sub, index, print| {
+            file(cells + sub, splits.counts[sub], index, print)
+        });
+        self.splits = splits.grids;
+        for grid in &mut self.splits {
+            grid.first += cells as u32;
+        }
         for w in starts.windows(2) {
             self.entries[w[0] as usize..w[1] as usize]
                 .sort_unstable_by(|a, b| a.near.total_cmp(&b.near).then(a.index.cmp(&b.index)));
@@ -292,31 +325,52 @@ impl LightBuffer {
         if (0..2).any(|k| !(uv[k] >= grid.lo[k] && uv[k] <= grid.hi[k])) {
             return none;
         }
-        let cell = (grid.first + grid.cell(1, uv[1]) * grid.side[0] + grid.cell(0, uv[0])) as usize;
-        let entries = &self.entries[self.starts[cell] as usize..self.starts[cell + 1] as usize];
+        let mut entries = self.entries_in(grid, uv);
+        if let Some(split) = entries
+            .first()
+            .filter(|e| e.index >= SPLIT && e.index != WALK)
+        {
+            entries = self.entries_in(&self.splits[(split.index - SPLIT) as usize], uv);
+        }
         if entries.first().is_some_and(|e| e.index == WALK) {
             return Candidates::Walk;
         }
         Candidates::List { entries, depth }
     }
 
-    /// Bytes the buffer holds: its cells' starts and its entries.
+    /// The entries of `grid`'s cell (a face's or a split cell's) at face coordinates `uv`.
+    #[inline]
+    fn entries_in(&self, grid: &Grid, uv: [f32; 2]) -> &[Entry] {
+        let cell = (grid.first + grid.cell(1, uv[1]) * grid.side[0] + grid.cell(0, uv[0])) as usize;
+        &self.entries[self.starts[cell] as usize..self.starts[cell + 1] as usize]
+    }
+
+    /// Bytes the buffer holds: its cells' starts, its entries and its split cells' grids.
     pub fn bytes(&self) -> u64 {
-        (self.starts.len() * size_of::<u32>() + self.entries.len() * size_of::<Entry>()) as u64
+        (self.starts.len() * size_of::<u32>()
+            + self.entries.len() * size_of::<Entry>()
+            + self.splits.len() * size_of::<Grid>()) as u64
     }
 
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
     /// primitives, what it keeps included: every primitive's footprints on all six faces (in
-    /// vectors of at most twice their length, or 4), the cells (at most
+    /// vectors of at most twice their length, or 4); the cells (at most
     /// [`CELLS_PER_PRIMITIVE`] per footprint plus the rounding up of [`MAX_SIDE`]-bounded sides
-    /// on each face) counted, started and filled in three `u32` arrays, and the kept entries
-    /// within their budget.
+    /// on each face) and the split cells' sub-cells, each counted, started and filled in `u32`
+    /// arrays, with the list of crowded cells and a second count of the sub-cells; the split
+    /// cells and their grids, twice; and the kept entries within their budgets.
     pub fn peak_bytes(primitives: usize) -> u64 {
         let n = primitives as u64;
         let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
-        let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * n + 2 * u64::from(MAX_SIDE) + 1) + 1;
-        let kept = KEPT as u64 * n + cells;
-        footprints + 3 * cells * size_of::<u32>() as u64 + kept * size_of::<Entry>() as u64
+        let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * n + 2 * u64::from(MAX_SIDE) + 1);
+        let splits = Splits::most(primitives) as u64;
+        let sub_cells = splits * split::CELLS as u64;
+        let kept = 2 * KEPT as u64 * n + cells + sub_cells;
+        let split_cells = 2 * splits * (size_of::<Grid>() + size_of::<u32>()) as u64;
+        footprints
+            + 4 * (cells + sub_cells + 1) * size_of::<u32>() as u64
+            + split_cells
+            + kept * size_of::<Entry>() as u64
     }
 
     /// Cells over all faces and entries filed in them.
@@ -325,21 +379,19 @@ impl LightBuffer {
     }
 }
 
-/// Calls `f(cell, entry)` for every cell each footprint covers.
+/// Calls `f(cell, index, footprint)` for every cell each footprint covers.
 fn each_cell(
     faces: &[Option<Grid>; 6],
     footprints: &[Vec<(u32, Footprint)>; 6],
-    mut f: impl FnMut(usize, Entry),
+    mut f: impl FnMut(usize, u32, &Footprint),
 ) {
     for (grid, prints) in faces.iter().zip(footprints) {
         let Some(grid) = grid else { continue };
-        for &(index, print) in prints {
-            let [[u0, u1], [v0, v1]] = grid.cells(&print);
+        for (index, print) in prints {
+            let [[u0, u1], [v0, v1]] = grid.cells(print);
             for v in v0..=v1 {
                 for u in u0..=u1 {
-                    let cell = grid.first + v * grid.side[0] + u;
-                    let near = print.near;
-                    f(cell as usize, Entry { near, index });
+                    f((grid.first + v * grid.side[0] + u) as usize, *index, print);
                 }
             }
         }
@@ -552,12 +604,12 @@ mod tests {
     use crate::geom::triangle::{intersect, RayFrame};
     use crate::scene::mesh::Rng;
 
-    fn point(rng: &mut Rng, r: f32) -> Vec3 {
+    pub(super) fn point(rng: &mut Rng, r: f32) -> Vec3 {
         Vec3::new(rng.range(-r, r), rng.range(-r, r), rng.range(-r, r))
     }
 
     /// `n` triangles of corners within `size` of centres within `spread` of the origin.
-    fn scatter(rng: &mut Rng, n: usize, spread: f32, size: f32) -> Vec<[Vec3; 3]> {
+    pub(super) fn scatter(rng: &mut Rng, n: usize, spread: f32, size: f32) -> Vec<[Vec3; 3]> {
         (0..n)
             .map(|_| {
                 let c = point(rng, spread);
@@ -567,7 +619,7 @@ mod tests {
     }
 
     /// The box around the triangles and boxes, as the scene hands it to the build.
-    fn bounds_of(tris: &[[Vec3; 3]], boxes: &[Option<Aabb>]) -> Aabb {
+    pub(super) fn bounds_of(tris: &[[Vec3; 3]], boxes: &[Option<Aabb>]) -> Aabb {
         let mut bounds = Aabb::EMPTY;
         tris.iter().flatten().for_each(|&p| bounds.add_point(p));
         boxes.iter().flatten().for_each(|b| {
@@ -677,7 +729,7 @@ mod tests {
     }
 
     /// The entries a listed query tests.
-    fn listed(c: Candidates<'_>) -> Option<Vec<u32>> {
+    pub(super) fn listed(c: Candidates<'_>) -> Option<Vec<u32>> {
         match c {
             Candidates::Walk => None,
             Candidates::List { entries, depth } => Some(
