@@ -326,20 +326,20 @@ impl LightBuffer {
             return none;
         }
         let mut entries = self.entries_in(grid, uv);
-        if let Some(split) = entries
-            .first()
-            .filter(|e| e.index >= SPLIT && e.index != WALK)
-        {
-            entries = self.entries_in(&self.splits[(split.index - SPLIT) as usize], uv);
-        }
-        if entries.first().is_some_and(|e| e.index == WALK) {
-            return Candidates::Walk;
+        if let Some(mark) = entries.first().filter(|e| e.index >= SPLIT) {
+            if mark.index == WALK {
+                return Candidates::Walk;
+            }
+            entries = self.entries_in(&self.splits[(mark.index - SPLIT) as usize], uv);
+            if entries.first().is_some_and(|e| e.index == WALK) {
+                return Candidates::Walk;
+            }
         }
         Candidates::List { entries, depth }
     }
 
     /// The entries of `grid`'s cell (a face's or a split cell's) at face coordinates `uv`.
-    #[inline]
+    #[inline(always)]
     fn entries_in(&self, grid: &Grid, uv: [f32; 2]) -> &[Entry] {
         let cell = (grid.first + grid.cell(1, uv[1]) * grid.side[0] + grid.cell(0, uv[0])) as usize;
         &self.entries[self.starts[cell] as usize..self.starts[cell + 1] as usize]
