@@ -358,7 +358,8 @@ impl LightBuffer {
     /// [`CELLS_PER_PRIMITIVE`] per footprint plus the rounding up of [`MAX_SIDE`]-bounded sides
     /// on each face) and the split cells' sub-cells, each counted, started and filled in `u32`
     /// arrays, with the list of crowded cells and a second count of the sub-cells; the split
-    /// cells and their grids, twice; and the kept entries within their budgets.
+    /// cells, their grids and their filed entries, twice; and the kept entries within their
+    /// budgets.
     pub fn peak_bytes(primitives: usize) -> u64 {
         let n = primitives as u64;
         let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
@@ -366,7 +367,8 @@ impl LightBuffer {
         let splits = Splits::most(primitives) as u64;
         let sub_cells = splits * split::CELLS as u64;
         let kept = 2 * KEPT as u64 * n + cells + sub_cells;
-        let split_cells = 2 * splits * (size_of::<Grid>() + size_of::<u32>()) as u64;
+        let split_cells =
+            2 * splits * (size_of::<Grid>() + size_of::<u32>() + size_of::<usize>()) as u64;
         footprints
             + 4 * (cells + sub_cells + 1) * size_of::<u32>() as u64
             + split_cells

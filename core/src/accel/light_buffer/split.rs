@@ -4,10 +4,11 @@
 //! primitives are small against it (a tree's branches seen past its trunk), a [`SIDE`]` × `
 //! [`SIDE`] grid over that one cell lists most of its directions again. [`plan`] chooses the
 //! crowded cells to split, least crowded first, within budgets in proportion to the primitives
-//! (so a split buffer keeps the memory bound of [`LightBuffer::peak_bytes`]), and counts what
-//! each sub-cell would list. A split whose sub-cells would list more than [`SHORT`] entries
-//! on average is not kept: its primitives are as large as the cell (SPD's mount seen from its
-//! lights: 34 on average, and no fewer tests per ray than the walk's).
+//! (so a split buffer keeps the memory bound of [`LightBuffer::peak_bytes`]). A split whose
+//! sub-cells would be filed more than [`SHORT`] entries on average is not kept: its
+//! primitives are about as large as the cell (SPD's mount seen from its lights, where
+//! splitting left the tests per ray as they were). Only then are the kept splits' sub-cells
+//! counted and filed.
 //!
 //! # Why no blocker is missed
 //! A sub-grid's cell map is the face grid's map ([`Grid::cell`]): monotone in the face
@@ -20,7 +21,7 @@
 //!
 //! [`LightBuffer::peak_bytes`]: super::LightBuffer::peak_bytes
 
-use super::{each_cell, kept_in, Footprint, Grid, CELL_LIMIT, KEPT};
+use super::{each_cell, Footprint, Grid, CELL_LIMIT, KEPT};
 use alloc::vec;
 use alloc::vec::Vec;
 
@@ -33,11 +34,11 @@ pub const CELLS: usize = (SIDE * SIDE) as usize;
 /// At most one split cell per this many primitives.
 const PRIMITIVES_PER_SPLIT: usize = 64;
 
-/// A split is kept where its sub-cells list at most this many entries on average.
+/// A split is kept where its sub-cells would be filed at most this many entries on average.
 const SHORT: usize = 16;
 
-/// At most this many footprints per primitive filed in the split cells: each is filed in at
-/// most [`CELLS`] sub-cells, so this bounds the splitting's time.
+/// At most this many footprints per primitive in the cells considered for splitting (this
+/// bounds the planning's time; the filing's is bounded by the kept splits' entries).
 const FILED_PER_PRIMITIVE: usize = 4;
 
 /// The split cells of a buffer and what their sub-cells list.
@@ -72,15 +73,7 @@ impl Splits {
         counts: &[u32],
         mut f: impl FnMut(usize, u32, &Footprint),
     ) {
-        if self.cells.is_empty() {
-            return;
-        }
-        each_cell(faces, footprints, |cell, index, print| {
-            if counts[cell] as usize <= CELL_LIMIT {
-                return;
-            }
-            let Some(k) = self.find(cell) else { return };
-            let grid = &self.grids[k];
+        each_split(self, faces, footprints, counts, |_, grid, index, print| {
             let [[u0, u1], [v0, v1]] = grid.cells(print);
             for v in v0..=v1 {
                 for u in u0..=u1 {
@@ -121,38 +114,70 @@ pub fn plan(
             splits.grids.push(grid);
         }
     }
+    splits.keep_short(faces, footprints, counts, primitives);
     let mut sub = vec![0u32; splits.cells.len() * CELLS];
     splits.each_sub_cell(faces, footprints, counts, |s, _, _| {
         sub[s] = sub[s].saturating_add(1)
     });
     splits.counts = sub;
-    splits.keep_useful(primitives);
     splits
 }
 
 impl Splits {
-    /// Keeps, in order, the splits whose sub-cells list at most [`SHORT`] entries on average,
-    /// while all kept splits' entries stay within [`KEPT`] per primitive.
-    fn keep_useful(&mut self, primitives: usize) {
-        let mut kept = 0usize;
+    /// Keeps, in order, the splits whose sub-cells would be filed at most [`SHORT`] entries
+    /// on average, while all kept splits' filed entries stay within [`KEPT`] per primitive.
+    /// Counting a footprint's sub-cells takes one product, so a split that is not kept costs
+    /// no filing.
+    fn keep_short(
+        &mut self,
+        faces: &[Option<Grid>; 6],
+        footprints: &[Vec<(u32, Footprint)>; 6],
+        counts: &[u32],
+        primitives: usize,
+    ) {
+        let mut filed = vec![0usize; self.cells.len()];
+        each_split(self, faces, footprints, counts, |k, grid, _, print| {
+            let [[u0, u1], [v0, v1]] = grid.cells(print);
+            filed[k] += (u1 - u0 + 1) as usize * (v1 - v0 + 1) as usize;
+        });
+        let mut total = 0usize;
         let mut next = Splits::default();
-        for (k, counts) in self.counts.chunks_exact(CELLS).enumerate() {
-            let entries: usize = counts.iter().map(|&n| kept_in(n) as usize).sum();
-            let short = entries <= SHORT * CELLS;
-            if !short || kept + entries > KEPT * primitives {
+        for (k, &n) in filed.iter().enumerate() {
+            if n > SHORT * CELLS || total + n > KEPT * primitives {
                 continue;
             }
-            kept += entries;
+            total += n;
             let grid = Grid {
                 first: (next.cells.len() * CELLS) as u32,
                 ..self.grids[k]
             };
             next.cells.push(self.cells[k]);
             next.grids.push(grid);
-            next.counts.extend_from_slice(counts);
         }
         *self = next;
     }
+}
+
+/// Calls `f(k, grid, index, footprint)` for every footprint filed in a split cell, with the
+/// split's index and grid and the footprint's primitive.
+fn each_split(
+    splits: &Splits,
+    faces: &[Option<Grid>; 6],
+    footprints: &[Vec<(u32, Footprint)>; 6],
+    counts: &[u32],
+    mut f: impl FnMut(usize, &Grid, u32, &Footprint),
+) {
+    if splits.cells.is_empty() {
+        return;
+    }
+    each_cell(faces, footprints, |cell, index, print| {
+        if counts[cell] as usize <= CELL_LIMIT {
+            return;
+        }
+        if let Some(k) = splits.find(cell) {
+            f(k, &splits.grids[k], index, print);
+        }
+    });
 }
 
 /// The grid over face cell `cell`, the `k`-th split: [`SIDE`] sub-cells on each axis of the
