@@ -27,12 +27,11 @@
 //! face from far away (see [`crate::accel::octree`]) applies here too.
 //!
 //! Where a cell lists more than [`CELL_LIMIT`] primitives it may be split: gridded again,
-//! finer, over that cell alone (the `split` module), where its primitives are small against it. A query
-//! in a crowded cell that is not split, or in a sub-cell still over the limit, says
-//! [`Candidates::Walk`].
-//! A light gets no buffer where over a third of its occupied cells are such cells (primitives
-//! crowd around it, and the walk is as short as a list), or where the buffer would outgrow its
-//! budget even with coarse cells.
+//! finer, over that cell alone (the `split` module), where its primitives are small against
+//! it. A query in a crowded cell that is not split, or in a sub-cell still over the limit,
+//! says [`Candidates::Walk`]. A light gets no buffer where over a third of its occupied cells
+//! are over the limit (primitives crowd around it, and the walk is as short as a list), or
+//! where the buffer would outgrow its budget even with coarse cells.
 
 mod split;
 
@@ -292,7 +291,7 @@ impl LightBuffer {
     /// The primitives a shadow ray may meet, or [`Candidates::Walk`] where the buffer cannot
     /// say: a ray that does not end at this light (`ray.dir` must be `light − ray.origin` as
     /// `f32` computes it), `t_max` above 1, an origin beyond the buffer's reach or at the light,
-    /// or a cell over [`CELL_LIMIT`].
+    /// or a cell over [`CELL_LIMIT`] that is not split, or a split cell's sub-cell over it.
     #[inline]
     pub fn candidates(&self, ray: &Ray, t_max: f32) -> Candidates<'_> {
         let q = ray.origin - self.light;
@@ -375,7 +374,7 @@ impl LightBuffer {
             + kept * size_of::<Entry>() as u64
     }
 
-    /// Cells over all faces and entries filed in them.
+    /// Cells over all faces and the split cells' sub-cells, and the entries filed in them.
     pub fn size(&self) -> (usize, usize) {
         (self.starts.len().saturating_sub(1), self.entries.len())
     }
