@@ -729,6 +729,23 @@ mod tests {
         );
     }
 
+    /// How many of `tris` block the shadow ray `ray` (towards the light, `t` below 1);
+    /// panics where one of them is not in `list`.
+    pub(super) fn blockers_listed(list: &[u32], ray: &Ray, tris: &[[Vec3; 3]]) -> usize {
+        let frame = RayFrame::new(ray);
+        let mut blockers = 0;
+        for (i, t) in tris.iter().enumerate() {
+            if intersect(&frame, t, 1.0).is_some_and(|h| h.t + h.t_error < 1.0) {
+                blockers += 1;
+                assert!(
+                    list.contains(&(i as u32)),
+                    "ray {ray:?}: triangle {i} blocks, not listed"
+                );
+            }
+        }
+        blockers
+    }
+
     /// The entries a listed query tests.
     pub(super) fn listed(c: Candidates<'_>) -> Option<Vec<u32>> {
         match c {
@@ -826,16 +843,7 @@ mod tests {
                     continue;
                 };
                 answered += 1;
-                let frame = RayFrame::new(&ray);
-                for (i, t) in tris.iter().enumerate() {
-                    if intersect(&frame, t, 1.0).is_some_and(|h| h.t + h.t_error < 1.0) {
-                        blockers += 1;
-                        assert!(
-                            list.contains(&(i as u32)),
-                            "light {light}, ray {ray:?}: triangle {i} blocks, not listed"
-                        );
-                    }
-                }
+                blockers += blockers_listed(&list, &ray, &tris);
                 if k % 4 == 3 {
                     let j = k / 4 % boxes.len();
                     blockers += 1;

@@ -209,9 +209,8 @@ fn sub_grid(faces: &[Option<Grid>; 6], cell: usize, k: usize) -> Option<Grid> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{bounds_of, listed, point, scatter};
+    use super::super::tests::{blockers_listed, bounds_of, listed, point, scatter};
     use super::super::LightBuffer;
-    use crate::geom::triangle::{intersect, RayFrame};
     use crate::math::ray::Ray;
     use crate::scene::mesh::Rng;
     use glam::Vec3;
@@ -251,16 +250,7 @@ mod tests {
                 continue;
             };
             answered += 1;
-            let frame = RayFrame::new(&ray);
-            for (i, t) in tris.iter().enumerate() {
-                if intersect(&frame, t, 1.0).is_some_and(|h| h.t + h.t_error < 1.0) {
-                    blockers += 1;
-                    assert!(
-                        list.contains(&(i as u32)),
-                        "ray {ray:?}: triangle {i} blocks, not listed"
-                    );
-                }
-            }
+            blockers += blockers_listed(&list, &ray, &tris);
             listed_total += list.len();
         }
         // Without the splits every one of these queries would walk.
