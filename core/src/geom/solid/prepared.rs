@@ -82,17 +82,40 @@ pub struct Solids {
     objects: Vec<u32>,
     /// World box of each object (`None`: unbounded).
     bounds: Vec<Option<Aabb>>,
-    /// Per object, the box a ray must cross before the object is evaluated: its world box grown
-    /// by [`REJECT_MARGIN`](super::extent::REJECT_MARGIN); `None` for unbounded objects and for lone spheres, whose own test
-    /// is about as cheap.
-    reject_boxes: Vec<Option<Aabb>>,
-    /// Per object, the sphere it is if it is one sphere moved by a translation alone (tested
-    /// without its node).
-    lone_spheres: Vec<Option<LoneSphere>>,
+    /// Per object, what its test settles before reading its node (one load per test).
+    shortcuts: Vec<Shortcut>,
     /// True if any of them is one.
     any_lone_sphere: bool,
     /// Object-space triangles of the mesh nodes.
     mesh_triangles: Vec<[Vec3; 3]>,
+}
+
+/// What a test of one object settles before it reads the object's node.
+#[derive(Clone, Copy, Debug)]
+enum Shortcut {
+    /// One sphere moved by a translation alone, tested without its node.
+    Sphere(LoneSphere),
+    /// The box a ray must cross before the object is evaluated: its world box grown by
+    /// [`REJECT_MARGIN`](super::extent::REJECT_MARGIN).
+    Reject(Aabb),
+    /// Neither: an unbounded object, or a sphere that is not lone (a sphere's own test is
+    /// about as cheap as its box's).
+    Node,
+}
+
+impl Shortcut {
+    /// The shortcut of the object whose root is `node`, node `root` of the arena, with world
+    /// box `bounds` (`None`: unbounded).
+    fn of(node: &PreparedNode, root: u32, bounds: Option<&Aabb>) -> Shortcut {
+        match node {
+            PreparedNode::Leaf {
+                shape: shape @ Shape::Sphere { .. },
+                placement,
+                ..
+            } => LoneSphere::of(shape, placement, root).map_or(Shortcut::Node, Shortcut::Sphere),
+            _ => bounds.map_or(Shortcut::Node, |b| Shortcut::Reject(reject_box(b))),
+        }
+    }
 }
 
 /// The scale of `placement` if its linear part is a rotation times one scale, to a millionth
@@ -213,36 +236,17 @@ impl Solids {
                 finite_box(&b).then_some(b)
             })
             .collect();
-        let reject_boxes = objects
+        let shortcuts: Vec<Shortcut> = objects
             .iter()
             .zip(&bounds)
-            .map(|(&r, b)| {
-                let sphere = matches!(
-                    prepared[r as usize],
-                    PreparedNode::Leaf {
-                        shape: Shape::Sphere { .. },
-                        ..
-                    }
-                );
-                b.as_ref().filter(|_| !sphere).map(reject_box)
-            })
+            .map(|(&r, b)| Shortcut::of(&prepared[r as usize], r, b.as_ref()))
             .collect();
-        let lone_spheres: Vec<Option<LoneSphere>> = objects
-            .iter()
-            .map(|&r| match &prepared[r as usize] {
-                PreparedNode::Leaf {
-                    shape, placement, ..
-                } => LoneSphere::of(shape, placement, r),
-                _ => None,
-            })
-            .collect();
-        let any_lone_sphere = lone_spheres.iter().any(Option::is_some);
+        let any_lone_sphere = shortcuts.iter().any(|s| matches!(s, Shortcut::Sphere(_)));
         Solids {
             nodes: prepared,
             objects: objects.to_vec(),
             bounds,
-            reject_boxes,
-            lone_spheres,
+            shortcuts,
             any_lone_sphere,
             mesh_triangles: mesh_triangles.to_vec(),
         }
@@ -251,7 +255,10 @@ impl Solids {
     /// Object `object` as a lone sphere, if it is one (one sphere moved by a translation alone).
     #[inline]
     pub fn lone_sphere(&self, object: u32) -> Option<LoneSphere> {
-        self.lone_spheres.get(object as usize).copied().flatten()
+        match self.shortcuts.get(object as usize) {
+            Some(&Shortcut::Sphere(sphere)) => Some(sphere),
+            _ => None,
+        }
     }
 
     /// True if any object is a lone sphere.
@@ -418,9 +425,21 @@ impl Solids {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<SolidHit> {
-        if let Some(sphere) = &self.lone_spheres[object as usize] {
-            return sphere.first_hit(ray, t_max);
+        match &self.shortcuts[object as usize] {
+            Shortcut::Sphere(sphere) => sphere.first_hit(ray, t_max),
+            _ => self.node_first_hit(object, ray, t_max, scratch),
         }
+    }
+
+    /// [`Solids::first_hit`] of an object that is not a lone sphere, from its node.
+    #[inline]
+    fn node_first_hit(
+        &self,
+        object: u32,
+        ray: &Ray,
+        t_max: f32,
+        scratch: &mut SpanScratch,
+    ) -> Option<SolidHit> {
         let root = self.objects[object as usize];
         if let PreparedNode::Leaf {
             shape, placement, ..
@@ -458,7 +477,7 @@ impl Solids {
     /// [`Solids::first_hit`], skipped when the ray misses the object's reject box within
     /// `[0, t_max]` (`inv_dir` is `1 / ray.dir`): the same answer, found cheaply for rays that
     /// pass far from a cone, a box or a CSG object.
-    #[inline]
+    #[inline(always)]
     pub fn first_hit_in_box(
         &self,
         object: u32,
@@ -467,10 +486,14 @@ impl Solids {
         t_max: f32,
         scratch: &mut SpanScratch,
     ) -> Option<SolidHit> {
-        if let Some(b) = &self.reject_boxes[object as usize] {
-            b.intersect(ray, inv_dir, t_max)?;
+        match &self.shortcuts[object as usize] {
+            Shortcut::Sphere(sphere) => return sphere.first_hit(ray, t_max),
+            Shortcut::Reject(b) => {
+                b.intersect(ray, inv_dir, t_max)?;
+            }
+            Shortcut::Node => {}
         }
-        self.first_hit(object, ray, t_max, scratch)
+        self.node_first_hit(object, ray, t_max, scratch)
     }
 
     /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
