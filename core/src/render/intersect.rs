@@ -18,6 +18,7 @@
 use crate::accel::light_buffer::Candidates;
 use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, LANES};
 use crate::accel::work::QueryWork;
+use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
@@ -159,8 +160,33 @@ impl GroupTests<PrimitiveHit> for SceneTests<'_> {
     }
 }
 
+/// The triangles a shadow ray cannot meet in front of its origin: the one it leaves from and
+/// the others in that one's axis-aligned plane, if it shares one ([`AxisPlanes`]); see
+/// [`Scene::shadowed`].
+#[derive(Clone, Copy)]
+struct LeftBehind {
+    triangle: Option<u32>,
+    plane: u32,
+}
+
+impl LeftBehind {
+    fn new(scene: &Scene, leaving: Option<u32>) -> LeftBehind {
+        LeftBehind {
+            triangle: leaving,
+            plane: leaving.map_or(AxisPlanes::NONE, |t| scene.axis_planes.of(t)),
+        }
+    }
+
+    /// True if primitive `i` is one of them.
+    #[inline(always)]
+    fn holds(&self, scene: &Scene, i: u32) -> bool {
+        Some(i) == self.triangle
+            || (self.plane != AxisPlanes::NONE && scene.axis_planes.of(i) == self.plane)
+    }
+}
+
 /// One shadow query's tests for [`Octree::any_hit_grouped`]: lone spheres in groups, the rest
-/// one by one, and never `leaving`, the triangle the ray starts from (see [`Scene::shadowed`]).
+/// one by one, and never a triangle `left` holds (see [`Scene::shadowed`]).
 struct SceneBlocks<'a> {
     scene: &'a Scene,
     frame: &'a QueryFrame,
@@ -169,16 +195,22 @@ struct SceneBlocks<'a> {
     spans: &'a mut SpanScratch,
     /// Made when a leaf is first tested as a group.
     spheres: Option<SphereGroup>,
-    leaving: Option<u32>,
+    left: LeftBehind,
+}
+
+impl SceneBlocks<'_> {
+    /// True if primitive `i` blocks the ray, where `left` does not hold it.
+    #[inline(always)]
+    fn tested(&mut self, i: u32) -> bool {
+        self.scene
+            .blocks(self.frame, self.ray, i, self.t_max, self.spans)
+    }
 }
 
 impl GroupBlocks for SceneBlocks<'_> {
     #[inline(always)]
     fn blocks(&mut self, i: u32) -> bool {
-        Some(i) != self.leaving
-            && self
-                .scene
-                .blocks(self.frame, self.ray, i, self.t_max, self.spans)
+        !self.left.holds(self.scene, i) && self.tested(i)
     }
 
     #[inline]
@@ -423,7 +455,9 @@ impl Scene {
     /// triangle's plane (by at least the point's error bound) to the side the ray goes: the ray
     /// meets that plane at `t ≤ 0`, which the triangle test never reports (it reports only a `t`
     /// provably above 0), so it is not tested. On a large floor that test could not tell the
-    /// sign of `t` in `f32` and went to `f64` for every shadow ray.
+    /// sign of `t` in `f32` and went to `f64` for every shadow ray. Nor are the other triangles
+    /// of its plane where that is an axis-aligned plane they share exactly ([`AxisPlanes`]):
+    /// the same plane, so the same reason (on SPD's floors, the quad's other half).
     pub fn shadowed(
         &self,
         ray: &Ray,
@@ -437,8 +471,9 @@ impl Scene {
         let primitives = self.solid_index(self.solids.len() as u32);
         let tried = if memory.reached { 0 } else { SHADOW_CACHE };
         let last = &mut memory.blockers;
+        let left = LeftBehind::new(self, leaving);
         for k in 0..tried {
-            if let Some(i) = last[k].filter(|&i| i < primitives && Some(i) != leaving) {
+            if let Some(i) = last[k].filter(|&i| i < primitives && !left.holds(self, i)) {
                 work.intersection_tests += 1;
                 if self.blocks(&frame, ray, i, t_max, spans) {
                     last[..=k].rotate_right(1);
@@ -453,7 +488,7 @@ impl Scene {
             t_max,
             spans,
             spheres: None,
-            leaving,
+            left,
         };
         let listed = light
             .and_then(|l| self.light_buffers.get(l)?.as_ref())
@@ -465,10 +500,10 @@ impl Scene {
                     .iter()
                     .take_while(|e| e.near < depth)
                     .map(|e| e.index)
-                    .filter(|&i| Some(i) != leaving)
+                    .filter(|&i| !left.holds(self, i))
                     .find(|&i| {
                         work.intersection_tests += 1;
-                        tests.blocks(i)
+                        tests.tested(i)
                     })
             }
             Candidates::Walk if self.group_spheres => {

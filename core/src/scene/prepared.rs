@@ -11,6 +11,7 @@ use super::settings::RenderSettings;
 use crate::accel::leaf_spheres::LeafSpheres;
 use crate::accel::light_buffer::LightBuffer;
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
+use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::solid::prepared::Solids;
 use crate::geom::triangle::{area_normal, unit_normal};
@@ -38,6 +39,9 @@ pub struct Scene {
     pub triangle_normals: Vec<[Vec3; 3]>,
     /// Shader index of each triangle.
     pub triangle_shader: Vec<u32>,
+    /// The axis-aligned planes that triangles share, which a shadow ray leaving one of their
+    /// triangles passes over ([`Scene::shadowed`]).
+    pub axis_planes: AxisPlanes,
     /// Number of triangles with zero area, in the triangle list and in the meshes of CSG
     /// solids (kept, but never hit).
     pub degenerate_triangles: u32,
@@ -141,6 +145,7 @@ impl Scene {
             shaders: desc.shaders.clone(),
             lights: desc.lights.clone(),
             camera: CameraFrame::new(&desc.camera, desc.settings.width, desc.settings.height),
+            axis_planes: AxisPlanes::new(&triangle_points),
             triangle_points,
             triangle_normals,
             triangle_shader: desc.triangles.iter().map(|t| t.shader).collect(),

@@ -2,10 +2,13 @@
 //! shader moves it) never meets that triangle again: the triangle test reports no hit, so
 //! `Scene::shadowed` may leave it untested. Checked on small triangles, a soup, and a floor
 //! 100 units wide far from the origin, where `f32` cannot tell the sign of `t` (the case that
-//! sent every shadow ray of SPD's tree to `f64`), towards lights in every direction.
+//! sent every shadow ray of SPD's tree to `f64`), towards lights in every direction. Nor does it
+//! meet another triangle of the same axis-aligned plane (`AxisPlanes`: a floor's other half, the
+//! rest of a gear's fanned face), which `Scene::shadowed` leaves untested too.
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
+use strahl_core::geom::axis_planes::AxisPlanes;
 use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
 use strahl_core::render::intersect::{QueryScratch, ShadowMemory, SHADOW_CACHE};
@@ -40,6 +43,104 @@ fn triangles(rng: &mut Rng) -> Vec<[Vec3; 3]> {
         tris.push([c[0], c[2], c[3]]);
     }
     tris
+}
+
+/// A polygon of `n` corners on a wobbly circle around `centre`, in the plane `z = centre.z`,
+/// fanned into triangles from its first corner, as SPD's gears write their faces.
+fn fan(centre: Vec3, radius: f32, n: usize, rng: &mut Rng) -> Vec<[Vec3; 3]> {
+    let corners: Vec<Vec3> = (0..n)
+        .map(|k| {
+            let a = k as f32 / n as f32 * std::f32::consts::TAU;
+            let r = radius * rng.range(0.8, 1.0);
+            centre + Vec3::new(r * a.cos(), r * a.sin(), 0.0)
+        })
+        .collect();
+    (1..n - 1)
+        .map(|k| [corners[0], corners[k], corners[k + 1]])
+        .collect()
+}
+
+/// [`triangles`] and three fanned faces, two of them in one plane far apart.
+fn with_fans(rng: &mut Rng) -> Vec<[Vec3; 3]> {
+    let mut tris = triangles(rng);
+    for (centre, radius) in [
+        (Vec3::new(-0.3121, 2.7, 1.0), 2.0),
+        (Vec3::new(6.0, -5.0, 1.0), 1.5),
+        (Vec3::new(300.7, -20.1, -77.3), 40.0),
+    ] {
+        tris.extend(fan(centre, radius, 48, rng));
+    }
+    tris
+}
+
+#[test]
+fn a_ray_leaving_a_triangle_never_meets_another_of_its_axis_plane() {
+    let mut rng = Rng::new(41);
+    let tris = with_fans(&mut rng);
+    let planes = AxisPlanes::new(&tris);
+    let shared: Vec<usize> = (0..tris.len())
+        .filter(|&i| planes.of(i as u32) != AxisPlanes::NONE)
+        .collect();
+    assert_eq!(shared.len(), 4 + 3 * 46, "the floors' halves and the fans");
+    for k in 0..200_000 {
+        let i = shared[k % shared.len()];
+        let plane = planes.of(i as u32);
+        let mates: Vec<usize> = shared
+            .iter()
+            .copied()
+            .filter(|&j| j != i && planes.of(j as u32) == plane)
+            .collect();
+        let j = mates[(rng.next_u64() % mates.len() as u64) as usize];
+        let (tri, mate) = (&tris[i], &tris[j]);
+        let n = unit_normal(tri).expect("a fan's triangles have area");
+        let (p, err) = point_on(tri, &mut rng);
+        // Towards anywhere: steep, grazing (almost in the plane) and across the mate.
+        let w = match k % 3 {
+            0 => rng.direction(),
+            1 => (rng.direction() + n * rng.range(-1e-3, 1e-3)).normalize(),
+            _ => point_on(mate, &mut rng).0 - p + n * rng.range(-1e-2, 1e-2),
+        };
+        let ray = Ray::new(offset_ray_origin(p, err, n, w), w);
+        let hit = intersect(&RayFrame::new(&ray), mate, f32::INFINITY);
+        assert!(
+            hit.is_none(),
+            "ray {k} leaving triangle {i} meets {j} of its plane: {hit:?}, {ray:?}"
+        );
+    }
+}
+
+#[test]
+fn shadowed_leaving_a_shared_plane_answers_as_any_hit_through_the_lights_buffer() {
+    let mut rng = Rng::new(43);
+    let tris = with_fans(&mut rng);
+    let light = Vec3::new(0.5, 1.5, 8.0);
+    let mut desc = lit(light);
+    add_triangles(&mut desc, &tris);
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    assert!(scene.light_buffers[0].is_some(), "the light has a buffer");
+    let mut scratch = QueryScratch::default();
+    let mut last = ShadowMemory::default();
+    let (mut blocked, mut free) = (0, 0);
+    for k in 0..20_000u32 {
+        let i = (rng.next_u64() % tris.len() as u64) as u32;
+        let tri = &tris[i as usize];
+        let Some(n) = unit_normal(tri) else { continue };
+        let (p, err) = point_on(tri, &mut rng);
+        let origin = offset_ray_origin(p, err, n, light - p);
+        let ray = Ray::new(origin, light - origin);
+        let want = scene.any_hit(&ray, 1.0, &mut scratch);
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(0), &mut last, Some(i)));
+        assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
+        if want {
+            blocked += 1;
+        } else {
+            free += 1;
+        }
+    }
+    assert!(
+        blocked > 1000 && free > 1000,
+        "{blocked} blocked, {free} free"
+    );
 }
 
 #[test]
