@@ -231,7 +231,7 @@ mod tests {
             );
             patch + Vec3::new(x, y, z)
         };
-        for _ in 0..400 {
+        for _ in 0..800 {
             let c = in_patch(&mut rng);
             tris.push([0; 3].map(|_| c + point(&mut rng, 0.015)));
         }
