@@ -109,15 +109,16 @@ fn a_ray_leaving_a_triangle_never_meets_another_of_its_axis_plane() {
     }
 }
 
-#[test]
-fn shadowed_leaving_a_shared_plane_answers_as_any_hit_through_the_lights_buffer() {
-    let mut rng = Rng::new(43);
-    let tris = with_fans(&mut rng);
-    let light = Vec3::new(0.5, 1.5, 8.0);
-    let mut desc = lit(light);
-    add_triangles(&mut desc, &tris);
-    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
-    assert!(scene.light_buffers[0].is_some(), "the light has a buffer");
+/// Checks `Scene::shadowed` against `any_hit` on 20,000 shadow rays, each leaving a random
+/// triangle of `tris` (in `scene`) for the light at `light_at(rng)`, asked as light `light`;
+/// `prime(k, i, memory)` sets what the query remembers. Both answers must occur often.
+fn shadowed_answers_as_any_hit(
+    scene: &Scene,
+    tris: &[[Vec3; 3]],
+    rng: &mut Rng,
+    (light, mut light_at): (Option<usize>, impl FnMut(&mut Rng) -> Vec3),
+    mut prime: impl FnMut(u32, u32, &mut ShadowMemory),
+) {
     let mut scratch = QueryScratch::default();
     let mut last = ShadowMemory::default();
     let (mut blocked, mut free) = (0, 0);
@@ -125,11 +126,13 @@ fn shadowed_leaving_a_shared_plane_answers_as_any_hit_through_the_lights_buffer(
         let i = (rng.next_u64() % tris.len() as u64) as u32;
         let tri = &tris[i as usize];
         let Some(n) = unit_normal(tri) else { continue };
-        let (p, err) = point_on(tri, &mut rng);
-        let origin = offset_ray_origin(p, err, n, light - p);
-        let ray = Ray::new(origin, light - origin);
+        let (p, err) = point_on(tri, rng);
+        let to = light_at(rng);
+        let origin = offset_ray_origin(p, err, n, to - p);
+        let ray = Ray::new(origin, to - origin);
         let want = scene.any_hit(&ray, 1.0, &mut scratch);
-        let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(0), &mut last, Some(i)));
+        prime(k, i, &mut last);
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (light, &mut last, Some(i)));
         assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
         if want {
             blocked += 1;
@@ -141,6 +144,20 @@ fn shadowed_leaving_a_shared_plane_answers_as_any_hit_through_the_lights_buffer(
         blocked > 1000 && free > 1000,
         "{blocked} blocked, {free} free"
     );
+}
+
+#[test]
+fn shadowed_leaving_a_shared_plane_answers_as_any_hit_through_the_lights_buffer() {
+    let mut rng = Rng::new(43);
+    let tris = with_fans(&mut rng);
+    let light = Vec3::new(0.5, 1.5, 8.0);
+    let mut desc = lit(light);
+    add_triangles(&mut desc, &tris);
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    assert!(scene.light_buffers[0].is_some(), "the light has a buffer");
+    // What the query remembers is carried from one to the next, as a tracer's is.
+    let at_light = (Some(0), |_: &mut Rng| light);
+    shadowed_answers_as_any_hit(&scene, &tris, &mut rng, at_light, |_, _, _| {});
 }
 
 #[test]
@@ -182,34 +199,17 @@ fn shadowed_leaving_a_triangle_answers_as_any_hit() {
     let mut desc = lit(Vec3::new(0.0, 0.0, 10.0));
     add_triangles(&mut desc, &tris);
     let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
-    let mut scratch = QueryScratch::default();
-    let (mut blocked, mut free) = (0, 0);
-    for k in 0..20_000u32 {
-        let i = (rng.next_u64() % tris.len() as u64) as u32;
-        let tri = &tris[i as usize];
-        let Some(n) = unit_normal(tri) else { continue };
-        let (p, err) = point_on(tri, &mut rng);
-        let light = Vec3::new(
+    let anywhere = |rng: &mut Rng| {
+        Vec3::new(
             rng.range(-3.0, 3.0),
             rng.range(-3.0, 3.0),
             rng.range(-3.0, 3.0),
-        );
-        let origin = offset_ray_origin(p, err, n, light - p);
-        let ray = Ray::new(origin, light - origin);
-        let want = scene.any_hit(&ray, 1.0, &mut scratch);
-        // Remembering the triangle it leaves changes nothing either.
-        let mut last = ShadowMemory::default();
+        )
+    };
+    // Remembering the triangle it leaves changes nothing either.
+    let remember_it = |k: u32, i: u32, last: &mut ShadowMemory| {
+        *last = ShadowMemory::default();
         last.blockers[k as usize % SHADOW_CACHE] = Some(i).filter(|_| k % 3 != 0);
-        let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut last, Some(i)));
-        assert_eq!(got, want, "ray {k} leaving {i}: {ray:?}");
-        if want {
-            blocked += 1;
-        } else {
-            free += 1;
-        }
-    }
-    assert!(
-        blocked > 1000 && free > 1000,
-        "{blocked} blocked, {free} free"
-    );
+    };
+    shadowed_answers_as_any_hit(&scene, &tris, &mut rng, (None, anywhere), remember_it);
 }
