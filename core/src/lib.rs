@@ -6,7 +6,8 @@
 //! It reads in layers, bottom up; each uses only the layers listed before it (a test,
 //! `tests/tests/layers.rs`, fails when a module imports from a later layer):
 //! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
-//! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule.
+//! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule,
+//!    the axis-aligned planes that triangles share.
 //! 3. [`accel`]: the arena octree over triangles and bounded solids, and per light the
 //!    primitives by direction that shadow rays test (light buffers).
 //! 4. [`scene`]: the scene model loaders fill in, render settings and their limits, cameras,

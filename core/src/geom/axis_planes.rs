@@ -30,18 +30,18 @@ impl AxisPlanes {
 
     /// The shared axis-aligned planes of `triangles`.
     pub fn new(triangles: &[[Vec3; 3]]) -> AxisPlanes {
+        // Per plane, its number and how many triangles lie in it.
         let mut planes: BTreeMap<(usize, u32), (u32, u32)> = BTreeMap::new();
-        let keys: Vec<Option<(usize, u32)>> = triangles.iter().map(axis_plane).collect();
-        for key in keys.iter().flatten() {
+        for key in triangles.iter().filter_map(axis_plane) {
             let next = planes.len() as u32;
-            planes.entry(*key).or_insert((next, 0)).1 += 1;
+            planes.entry(key).or_insert((next, 0)).1 += 1;
         }
         if planes.values().all(|&(_, count)| count < 2) {
             return AxisPlanes::default();
         }
-        let of = keys
+        let of = triangles
             .iter()
-            .map(|key| match key.and_then(|k| planes.get(&k)) {
+            .map(|t| match axis_plane(t).and_then(|k| planes.get(&k)) {
                 Some(&(number, count)) if count >= 2 => number,
                 _ => AxisPlanes::NONE,
             })

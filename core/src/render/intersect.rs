@@ -199,7 +199,8 @@ struct SceneBlocks<'a> {
 }
 
 impl SceneBlocks<'_> {
-    /// True if primitive `i` blocks the ray, where `left` does not hold it.
+    /// True if primitive `i` blocks the ray; the caller has checked that `left` does not hold
+    /// it.
     #[inline(always)]
     fn tested(&mut self, i: u32) -> bool {
         self.scene
