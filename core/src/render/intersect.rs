@@ -422,6 +422,10 @@ impl Scene {
         spans: &mut SpanScratch,
         work: &mut QueryWork,
     ) -> Option<PrimitiveHit> {
+        if self.unbounded.is_empty() {
+            // Most scenes: no half-space (about 20 instructions a ray on tetra_8 otherwise).
+            return best.map(|(_, h)| h);
+        }
         work.intersection_tests += self.unbounded.len() as u64;
         for &j in &self.unbounded {
             let bound = best.map_or(t_max, |(_, h)| {
