@@ -4,7 +4,8 @@
 //! 100 units wide far from the origin, where `f32` cannot tell the sign of `t` (the case that
 //! sent every shadow ray of SPD's tree to `f64`), towards lights in every direction. Nor does it
 //! meet another triangle of the same axis-aligned plane (`AxisPlanes`: a floor's other half, the
-//! rest of a gear's fanned face), which `Scene::shadowed` leaves untested too.
+//! rest of a gear's fanned face), which `Scene::shadowed` leaves untested too. And a shadow ray
+//! that misses the triangle its light remembers is mostly settled by one listed next to it.
 
 use glam::Vec3;
 use strahl_core::accel::octree::OctreeParams;
@@ -212,4 +213,49 @@ fn shadowed_leaving_a_triangle_answers_as_any_hit() {
         last.blockers[k as usize % SHADOW_CACHE] = Some(i).filter(|_| k % 3 != 0);
     };
     shadowed_answers_as_any_hit(&scene, &tris, &mut rng, (None, anywhere), remember_it);
+}
+
+/// Shadow rays from points sweeping under a fanned face (a regular 48-gon fanned from its first
+/// corner, as SPD's gears write their faces) towards a light far above it: each is blocked, and
+/// where the sweep passes from one of the fan's triangles to the next, the triangle listed next
+/// to the remembered blocker settles the query. Without trying the neighbours every such step
+/// walks the octree (the sweep crosses 24 of the triangles); with them only the first query
+/// walks.
+#[test]
+fn shadow_rays_crossing_a_fan_are_settled_by_the_remembered_triangles_neighbours() {
+    let centre = Vec3::new(0.0, 0.0, 1.0);
+    let corners: Vec<Vec3> = (0..48)
+        .map(|k| {
+            let a = k as f32 / 48.0 * std::f32::consts::TAU;
+            centre + Vec3::new(2.0 * a.cos(), 2.0 * a.sin(), 0.0)
+        })
+        .collect();
+    let tris: Vec<[Vec3; 3]> = (1..47)
+        .map(|k| [corners[0], corners[k], corners[k + 1]])
+        .collect();
+    let light = Vec3::new(0.0, 0.0, 1000.0);
+    let mut desc = lit(light);
+    add_triangles(&mut desc, &tris);
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    let mut scratch = QueryScratch::default();
+    let mut memory = ShadowMemory::default();
+    let (mut blocked, mut walked, mut blockers) = (0, 0, std::collections::BTreeSet::new());
+    for k in 0..2000 {
+        let a = 0.3 + (std::f32::consts::TAU - 0.6) * k as f32 / 2000.0;
+        let p = Vec3::new(1.4 * a.cos(), 1.4 * a.sin(), 0.0);
+        let ray = Ray::new(p, light - p);
+        let cells = scratch.work.octree_cells;
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (None, &mut memory, None));
+        assert_eq!(
+            got,
+            scene.any_hit(&ray, 1.0, &mut QueryScratch::default()),
+            "ray {k}"
+        );
+        blocked += usize::from(got);
+        walked += usize::from(scratch.work.octree_cells > cells);
+        blockers.extend(memory.blockers[0]);
+    }
+    assert_eq!(blocked, 2000, "every ray crosses the face");
+    assert!(blockers.len() > 20, "{} triangles blocked", blockers.len());
+    assert!(walked <= 2, "{walked} queries walked the octree");
 }
