@@ -27,6 +27,7 @@ use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::scene::Scene;
+use glam::{Vec3, Vec4};
 
 /// How many blockers each light remembers for [`Scene::shadowed`] (two: 0.94× on gears_4
 /// against one; four gave no more).
@@ -39,7 +40,7 @@ pub const SHADOW_CACHE: usize = 2;
 /// triangles): gears_3 −9.4 % instructions with ±1 and ±2, −7.1 % with ±1 alone, −10.2 % with
 /// ±3 as well; tetra_8 +0.7 % (its shadow rays that miss the remembered triangle and its
 /// neighbours walk anyway).
-const NEIGHBOURS: [i32; 4] = [-1, 1, -2, 2];
+pub const NEIGHBOURS: [i32; 4] = [-1, 1, -2, 2];
 
 /// What a light remembers of its latest shadow rays, for [`Scene::shadowed`] to try first.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -395,10 +396,24 @@ impl Scene {
         let frames = per_lane(|l| QueryFrame::new(&rays[l]));
         let frame4 = RayFrame4::new(&per_lane(|l| frames[l].triangles));
         let n = self.triangle_points.len() as u32;
+        let axis_lanes = |v: &dyn Fn(&Ray) -> Vec3| {
+            let [a, b, c, d] = rays.each_ref().map(v);
+            [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
+        };
+        // For the spheres' four-ray test; scenes of triangles alone skip making them.
+        let lanes = (self.solids.has_lone_spheres())
+            .then(|| (axis_lanes(&|r| r.origin), axis_lanes(&|r| r.dir)));
         let hits = self
             .octree
             .closest_hits4(rays, t_max, work, |asked, i, closest| {
                 let Some(triangle) = self.triangle_points.get(i as usize) else {
+                    let mut asked = asked;
+                    if let (Some(sphere), Some((origins, dirs))) =
+                        (self.solids.lone_sphere(i - n), &lanes)
+                    {
+                        // The four rays' sure misses at once: most tests of a sphere end there.
+                        asked &= !sphere.surely_missed_by4(origins, dirs);
+                    }
                     for l in lanes_of(asked) {
                         let (j, bound) = (i - n, closest[l].bound());
                         let hit = self.solids.first_hit_in_box(

@@ -26,7 +26,7 @@ use crate::math::aabb::Aabb;
 use crate::math::lanes::sqrt_lanes;
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Vec3, Vec4};
 
 /// A sphere object whose placement is a translation: its world centre, radius and node.
 #[derive(Clone, Copy, Debug)]
@@ -77,6 +77,19 @@ impl LoneSphere {
             face,
             flip: false,
         })
+    }
+
+    /// The rays of four, their origins and directions per axis lane by lane, that surely miss
+    /// the sphere (bit `l` for ray `l`): [`LoneSphere::first_hit`] finds no hit for them. Its
+    /// test asks [`surely_misses`](super::sphere_miss::surely_misses) first, of the same
+    /// offsets from the centre where they are finite, and this asks it of the four at once
+    /// ([`surely_misses4`](super::sphere_miss::surely_misses4)); a lane with an infinite or NaN
+    /// value is never a sure miss.
+    #[inline(always)]
+    pub fn surely_missed_by4(&self, origin: &[Vec4; 3], dir: &[Vec4; 3]) -> u32 {
+        let c = self.centre;
+        let o = [0, 1, 2].map(|a| origin[a] - Vec4::splat(c[a]));
+        super::sphere_miss::surely_misses4(self.radius, o, *dir)
     }
 }
 

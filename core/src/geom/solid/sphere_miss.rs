@@ -8,7 +8,8 @@
 //! loses digits to cancellation when the ray passes close to the sphere's rim. It answers only
 //! where `X` is above a bound on both forms' rounding, so whenever it answers, the
 //! distance form's `f·f > r*r` holds too and the sphere test would have found no roots: the
-//! answer is the same, bit for bit, for every ray.
+//! answer is the same, bit for bit, for every ray. [`surely_misses4`] asks it of four rays at
+//! once, lane by lane, by the same operations: a camera packet's test of a lone sphere.
 //!
 //! **The bound.** Write `S = |o|²`, `A = |d|²` and `F = |f|²` for exact values, `u` for the unit
 //! roundoff and `γ(n) = nu/(1 − nu)`, and let `M = A·(S + r²)`.
@@ -31,7 +32,7 @@
 //!   test decides them.
 
 use crate::math::float::gamma;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// The smallest `d·d` and `o·o + r²` the rounding argument covers (2⁻⁶⁰).
 const LEAST_SCALE: f32 = 1.0 / (1u64 << 60) as f32;
@@ -44,6 +45,20 @@ pub fn surely_misses(r: f32, o: Vec3, d: Vec3) -> bool {
     let x = a * (oo - rr) - od * od;
     let scale = oo + rr;
     x > gamma(128) * (a * scale) && a >= LEAST_SCALE && scale >= LEAST_SCALE
+}
+
+/// [`surely_misses`] for four rays at once, one per lane (`o` and `d` per axis): the lanes
+/// (bit `l` for ray `l`) it says surely miss. Each lane's values are computed by the very
+/// operations `surely_misses` makes, in its order, so its answer is `surely_misses`'s.
+#[inline(always)]
+pub fn surely_misses4(r: f32, o: [Vec4; 3], d: [Vec4; 3]) -> u32 {
+    let dot = |u: &[Vec4; 3], v: &[Vec4; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+    let (a, oo, rr, od) = (dot(&d, &d), dot(&o, &o), Vec4::splat(r * r), dot(&o, &d));
+    let x = a * (oo - rr) - od * od;
+    let scale = oo + rr;
+    let least = Vec4::splat(LEAST_SCALE);
+    let sure = x.cmpgt(Vec4::splat(gamma(128)) * (a * scale)) & a.cmpge(least) & scale.cmpge(least);
+    sure.bitmask()
 }
 
 #[cfg(test)]
@@ -107,6 +122,54 @@ mod tests {
         assert!(sure > 50_000, "only {sure} sure misses");
         assert!(clear_misses > 10_000, "only {clear_misses} clear misses");
         assert_eq!(caught, clear_misses, "clear misses from close by");
+    }
+
+    /// The four-lane form answers as the one-ray form in every lane, bit for bit: rays near the
+    /// rim and far from it, at every scale, and zero, infinite and NaN components.
+    #[test]
+    fn four_lanes_answer_as_one() {
+        let mut rng = Rng::new(23);
+        let special = [
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NAN,
+            1e30,
+            1e-30,
+            f32::MIN_POSITIVE,
+        ];
+        let (mut sure, mut not) = (0, 0);
+        for case in 0..50_000usize {
+            let rays: [(f32, Vec3, Vec3); 4] = core::array::from_fn(|l| {
+                let k = (rng.next_f32() - 0.3) * 10f32.powi(-((case % 6) as i32));
+                let (r, mut o, mut d) = near_rim(&mut rng, k);
+                if (case + l) % 7 == 0 {
+                    let s = special[(rng.next_u64() % special.len() as u64) as usize];
+                    let axis = (rng.next_u64() % 3) as usize;
+                    if l % 2 == 0 {
+                        o[axis] = s;
+                    } else {
+                        d[axis] = s;
+                    }
+                }
+                (r, o, d)
+            });
+            // One radius for the four (the lanes share a sphere): rescale each ray to it.
+            let r = rays[0].0;
+            let rays = rays.map(|(q, o, d)| (o * (r / q), d));
+            let lanes = |f: &dyn Fn(&(Vec3, Vec3)) -> Vec3| {
+                let v = rays.map(|ray| f(&ray));
+                [0, 1, 2].map(|a| Vec4::new(v[0][a], v[1][a], v[2][a], v[3][a]))
+            };
+            let got = surely_misses4(r, lanes(&|ray| ray.0), lanes(&|ray| ray.1));
+            for (l, &(o, d)) in rays.iter().enumerate() {
+                let one = surely_misses(r, o, d);
+                assert_eq!(got >> l & 1 == 1, one, "case {case} lane {l}: {o:?} {d:?}");
+                sure += usize::from(one);
+                not += usize::from(!one);
+            }
+        }
+        assert!(sure > 20_000 && not > 20_000, "{sure} sure, {not} not");
     }
 
     /// Rays that hit, or start inside, are never called misses; nor are degenerate inputs.
