@@ -23,7 +23,7 @@
 use super::filing::{bits, ChildCells, Filing};
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::solid::extent::SolidExtent;
-use crate::geom::triangle::{self, unit_normal};
+use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use alloc::collections::BinaryHeap;
@@ -427,17 +427,8 @@ impl Builder<'_> {
         true
     }
 
-    /// Lays the leaves' lists out in node order and sums up the statistics. Each leaf lists its
-    /// triangles largest first, ties by index, then its solids by index: a shadow ray's walk
-    /// stops at the first blocker, and a large triangle blocks more rays (gears_3 −1.5 %
-    /// instructions). Solids keep their order, which keeps neighbours together in the groups
-    /// lone spheres are tested in (sorted by size too, shells_4 took 5 % more). No closest hit
-    /// depends on the order (ties go to the smallest index).
+    /// Lays the leaves' lists out in node order and sums up the statistics.
     fn finish(self) -> (Vec<Node>, Vec<u32>, OctreeStats) {
-        let filing = &self.filing;
-        let tris = (filing.triangles.iter()).map(|p| triangle::area_normal(p).length());
-        let solids = filing.reach.iter().map(|_| f32::NEG_INFINITY);
-        let sizes: Vec<f32> = tris.chain(solids).collect();
         let mut nodes = self.nodes;
         let mut indices = Vec::with_capacity((self.bytes - NODE_BYTES * nodes.len()) / ENTRY_BYTES);
         let mut stats = OctreeStats {
@@ -451,13 +442,7 @@ impl Builder<'_> {
                 first: indices.len() as u32,
                 count,
             };
-            let start = indices.len();
             indices.extend_from_slice(refs.get());
-            indices[start..].sort_unstable_by(|&a, &b| {
-                sizes[b as usize]
-                    .total_cmp(&sizes[a as usize])
-                    .then(a.cmp(&b))
-            });
             stats.leaves += 1;
             stats.empty_leaves += u32::from(count == 0);
             stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
@@ -571,40 +556,6 @@ impl Tally {
 mod tests {
     use super::*;
     use crate::accel::octree::xorshift;
-
-    /// Every leaf lists its triangles largest first, ties by index: a shadow ray's walk stops
-    /// at the first blocker. Triangles of random sizes, some of equal area, in few leaves and in
-    /// many.
-    #[test]
-    fn leaves_list_their_largest_primitives_first() {
-        let mut next = xorshift(0x2545_f491);
-        let mut unit = move || (next() >> 8) as f32 / (1u32 << 24) as f32;
-        let tris: Vec<[Vec3; 3]> = (0..3000)
-            .map(|k| {
-                let p = Vec3::new(unit(), unit(), unit()) * 10.0;
-                // Every third repeats the size of the one before: ties.
-                let s = if k % 3 == 2 { 0.5 } else { 0.05 + unit() };
-                [p, p + Vec3::X * s, p + Vec3::Y * s]
-            })
-            .collect();
-        let area = |i: u32| triangle::area_normal(&tris[i as usize]).length();
-        for max_leaf_triangles in [4, 64, 4000] {
-            let params = OctreeParams {
-                max_leaf_triangles,
-                ..OctreeParams::default()
-            };
-            let tree = Octree::build(&tris, &params);
-            let mut pairs = 0;
-            for (_, leaf) in tree.leaves() {
-                for w in leaf.windows(2) {
-                    let (a, b) = (area(w[0]), area(w[1]));
-                    assert!(a > b || (a == b && w[0] < w[1]), "{w:?}: {a} then {b}");
-                    pairs += 1;
-                }
-            }
-            assert!(pairs > 100, "{pairs} pairs in leaves");
-        }
-    }
 
     #[test]
     fn a_tally_counts_each_childs_bit_as_a_loop_over_the_bits_does() {
