@@ -401,7 +401,9 @@ impl Scene {
             [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
         };
         // For the spheres' four-ray test; scenes of triangles alone skip making them.
-        let lanes = (self.solids.has_lone_spheres())
+        let lanes = self
+            .solids
+            .has_lone_spheres()
             .then(|| (axis_lanes(&|r| r.origin), axis_lanes(&|r| r.dir)));
         let hits = self
             .octree
