@@ -24,7 +24,7 @@ pub struct AxisPlanes {
 }
 
 impl AxisPlanes {
-    /// The number of no plane: a triangle that is not alone in an axis-aligned plane, or a
+    /// The number of no plane: a triangle in no axis-aligned plane or alone in its plane, or a
     /// primitive that is not a triangle.
     pub const NONE: u32 = u32::MAX;
 

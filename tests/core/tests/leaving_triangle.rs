@@ -46,13 +46,14 @@ fn triangles(rng: &mut Rng) -> Vec<[Vec3; 3]> {
     tris
 }
 
-/// A polygon of `n` corners on a wobbly circle around `centre`, in the plane `z = centre.z`,
-/// fanned into triangles from its first corner, as SPD's gears write their faces.
-fn fan(centre: Vec3, radius: f32, n: usize, rng: &mut Rng) -> Vec<[Vec3; 3]> {
+/// A polygon of `n` corners around `centre`, in the plane `z = centre.z`, each at a random
+/// distance from `radius · (1 − wobble)` to `radius`, fanned into triangles from its first
+/// corner, as SPD's gears write their faces.
+fn fan(centre: Vec3, radius: f32, n: usize, wobble: f32, rng: &mut Rng) -> Vec<[Vec3; 3]> {
     let corners: Vec<Vec3> = (0..n)
         .map(|k| {
             let a = k as f32 / n as f32 * std::f32::consts::TAU;
-            let r = radius * rng.range(0.8, 1.0);
+            let r = radius * rng.range(1.0 - wobble, 1.0);
             centre + Vec3::new(r * a.cos(), r * a.sin(), 0.0)
         })
         .collect();
@@ -69,7 +70,7 @@ fn with_fans(rng: &mut Rng) -> Vec<[Vec3; 3]> {
         (Vec3::new(6.0, -5.0, 1.0), 1.5),
         (Vec3::new(300.7, -20.1, -77.3), 40.0),
     ] {
-        tris.extend(fan(centre, radius, 48, rng));
+        tris.extend(fan(centre, radius, 48, 0.2, rng));
     }
     tris
 }
@@ -223,16 +224,8 @@ fn shadowed_leaving_a_triangle_answers_as_any_hit() {
 /// walks.
 #[test]
 fn shadow_rays_crossing_a_fan_are_settled_by_the_remembered_triangles_neighbours() {
-    let centre = Vec3::new(0.0, 0.0, 1.0);
-    let corners: Vec<Vec3> = (0..48)
-        .map(|k| {
-            let a = k as f32 / 48.0 * std::f32::consts::TAU;
-            centre + Vec3::new(2.0 * a.cos(), 2.0 * a.sin(), 0.0)
-        })
-        .collect();
-    let tris: Vec<[Vec3; 3]> = (1..47)
-        .map(|k| [corners[0], corners[k], corners[k + 1]])
-        .collect();
+    // A regular polygon: convex, so its fan covers the disc the sweep stays in.
+    let tris = fan(Vec3::new(0.0, 0.0, 1.0), 2.0, 48, 0.0, &mut Rng::new(47));
     let light = Vec3::new(0.0, 0.0, 1000.0);
     let mut desc = lit(light);
     add_triangles(&mut desc, &tris);
