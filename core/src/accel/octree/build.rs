@@ -21,6 +21,7 @@
 //! order depends only on the scene, so every machine builds the same tree.
 
 use super::filing::{bits, ChildCells, Filing};
+use super::overlap::MARGIN_GAMMA;
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
@@ -186,7 +187,7 @@ impl Octree {
                 triangles,
                 reach,
                 solids,
-                margin: magnitude * gamma(16),
+                margin: magnitude * gamma(MARGIN_GAMMA),
             },
             params,
             nodes: Vec::with_capacity(most_nodes(budget)),

@@ -1,9 +1,9 @@
 //! Which children of a cell a primitive is filed in when the cell is split.
 //!
 //! [`ChildCells`] holds a cell's eight children as the tests need them (their boxes grown by the
-//! build's margin, and per axis the two grown halves); [`Filing`] holds the primitives and
-//! answers [`Filing::children_touched`]. The answer for one primitive comes in three steps, each
-//! exact, from cheap to dear:
+//! build's margin, per axis the two grown halves, and their centres relative to the cell's);
+//! [`Filing`] holds the primitives and answers [`Filing::children_touched`]. The answer for one
+//! primitive comes in three steps, from cheap to dear:
 //! 1. Its box against the centre planes (exact comparisons, no margin) gives the candidate
 //!    children. A box on one side of every plane has one candidate, and the parent's test
 //!    already said the primitive touches the parent, so that is the answer.
@@ -13,16 +13,16 @@
 //!
 //!    Steps 1 and 2 compare all three axes in the lanes of one [`Vec3A`] and look the children
 //!    up in [`REACHED`] by which sides of the planes were reached.
-//! 3. The remaining candidates get the separating-axis test (triangles, `overlap.rs`), the
-//!    sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the box
-//!    test (other solids).
+//! 3. The remaining candidates get the separating-axis test (triangles: the triangle's axes and
+//!    its extent along them made once, [`TriangleAxes`], then each child's offset projected),
+//!    the sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the
+//!    box test (other solids).
 //!
-//! A triangle touches a child exactly when the child's grown box (its sides included) holds a
-//! vertex or the separating-axis test finds no separating axis: the same answer as testing each
-//! candidate child on its own, which the tests below check.
+//! A triangle is filed in every candidate child it touches and in none it misses by more than
+//! twice the margin (the margin covers the test's rounding; the tests below check both against
+//! the test in `f64`, also for triangles that touch a child at a corner alone).
 
-use super::child_box;
-use super::overlap::{segment_box_overlap, sphere_surface_box_overlap, triangle_box_overlap};
+use super::overlap::{segment_box_overlap, sphere_surface_box_overlap, TriangleAxes};
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
@@ -61,12 +61,12 @@ fn reached(lower: BVec3A, upper: BVec3A) -> u8 {
 /// The eight children of a cell split at its centre, as the filing tests need them.
 pub(super) struct ChildCells {
     mid: Vec3A,
-    /// Each child's centre, and its half size grown by the margin, for the separating-axis
-    /// test.
-    centers: [Vec3; 8],
-    halves: [Vec3; 8],
+    /// Each child's centre relative to `mid`, and the largest of their half sizes grown by the
+    /// margin, for the separating-axis test ([`TriangleAxes`]).
+    offsets: [Vec3A; 8],
+    half: Vec3A,
     /// Each child's box grown by the margin: (lower corner, upper corner).
-    grown: [(Vec3, Vec3); 8],
+    grown: [(Vec3A, Vec3A); 8],
     /// The lower and the upper half of the cell grown by the margin, each as (low, high) per
     /// axis: the same numbers as the grown boxes' sides.
     lower: (Vec3A, Vec3A),
@@ -74,20 +74,26 @@ pub(super) struct ChildCells {
 }
 
 impl ChildCells {
-    /// The children of `cell`, each grown by `margin`.
+    /// The children of `cell`, each grown by `margin`. Each child's numbers are lane by lane
+    /// those of the cell's lower or upper half, the same as from its box (`child_box`).
     pub(super) fn new(cell: &Aabb, margin: f32) -> ChildCells {
-        let mid = cell.center();
-        let m = Vec3::splat(margin);
-        let boxes: [Aabb; 8] = core::array::from_fn(|c| child_box(cell, mid, c));
-        let grown = boxes.map(|b| (b.min - m, b.max + m));
-        let (lower, upper) = (grown[0], grown[7]);
+        let (min, max) = (Vec3A::from(cell.min), Vec3A::from(cell.max));
+        let mid = (min + max) * 0.5;
+        let m = Vec3A::splat(margin);
+        let lower = (min - m, mid + m);
+        let upper = (mid - m, max + m);
+        let (below, above) = ((min + mid) * 0.5 - mid, (mid + max) * 0.5 - mid);
+        let child = |c: usize| BVec3A::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+        let pick = |c: usize, (a, b): (Vec3A, Vec3A)| Vec3A::select(child(c), b, a);
         ChildCells {
-            mid: mid.into(),
-            centers: boxes.map(|b| b.center()),
-            halves: boxes.map(|b| (b.max - b.min) * 0.5 + m),
-            grown,
-            lower: (lower.0.into(), lower.1.into()),
-            upper: (upper.0.into(), upper.1.into()),
+            mid,
+            offsets: core::array::from_fn(|c| pick(c, (below, above))),
+            half: ((mid - min) * 0.5).max((max - mid) * 0.5) + m,
+            grown: core::array::from_fn(|c| {
+                (pick(c, (lower.0, upper.0)), pick(c, (lower.1, upper.1)))
+            }),
+            lower,
+            upper,
         }
     }
 
@@ -147,9 +153,15 @@ impl Filing<'_> {
             return candidates;
         }
         let held = candidates & (cells.holding(v[0]) | cells.holding(v[1]) | cells.holding(v[2]));
+        let rest = candidates & !held;
+        if rest == 0 {
+            return held;
+        }
+        let axes = TriangleAxes::new(p, cells.mid, cells.half);
         let mut mask = held;
-        for c in bits(candidates & !held) {
-            mask |= u8::from(triangle_box_overlap(cells.centers[c], cells.halves[c], p)) << c;
+        for c in bits(rest) {
+            let (lo, hi) = cells.grown[c];
+            mask |= u8::from(!axes.misses(cells.offsets[c], lo, hi)) << c;
         }
         mask
     }
@@ -164,7 +176,7 @@ impl Filing<'_> {
         let mut mask = 0;
         for c in bits(candidates) {
             let (lo, hi) = cells.grown[c];
-            mask |= u8::from(self.solid_touches(j, lo, hi)) << c;
+            mask |= u8::from(self.solid_touches(j, lo.into(), hi.into())) << c;
         }
         mask
     }
@@ -206,19 +218,17 @@ pub(super) fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::octree::child_box;
+    use crate::accel::octree::overlap::{touches_in_f64, MARGIN_GAMMA};
     use crate::accel::octree::xorshift;
     use crate::geom::solid::extent::reject_box;
+    use crate::math::float::{gamma, next_float_down, next_float_up};
 
-    /// Which children primitive `t` touches, child by child: a candidate (its box reaches the
-    /// child's side of every centre plane, or lies on no other side) that holds a vertex in
-    /// its grown box or passes the separating-axis test; a solid by its own test. `boxes` are
-    /// every primitive's (a triangle's, then a solid's reject box).
-    fn touched_child_by_child(f: &Filing, boxes: &[Aabb], cell: &Aabb, t: usize) -> u8 {
+    /// The children of `cell` whose side of every centre plane the box `b` reaches (or lies on
+    /// no other side of): where a primitive with that box may be filed.
+    fn candidates(cell: &Aabb, b: &Aabb) -> u8 {
         let mid = cell.center();
-        let b = &boxes[t];
-        let m = Vec3::splat(f.margin);
-        let mut mask = 0;
-        for c in 0..8 {
+        (0..8).fold(0, |mask, c| {
             let candidate = (0..3).all(|a| {
                 let lower_side = b.min[a] < mid[a];
                 let upper_side = b.max[a] > mid[a] || !lower_side;
@@ -228,21 +238,38 @@ mod tests {
                     lower_side
                 }
             });
-            if !candidate {
-                continue;
-            }
+            mask | u8::from(candidate) << c
+        })
+    }
+
+    /// Checks the children `got` that primitive `t` (box `b`), filed in `cell`, was given, child
+    /// by child: a triangle is given every candidate child it touches (in `f64`, on the child's
+    /// own box) and none it misses by more than twice the margin; a solid the candidates its own
+    /// test finds.
+    fn check_children(f: &Filing, b: &Aabb, cell: &Aabb, t: usize, got: u8) {
+        let mid = cell.center();
+        let m = Vec3::splat(f.margin);
+        let candidates = candidates(cell, b);
+        for c in 0..8 {
             let cb = child_box(cell, mid, c);
-            let (lo, hi) = (cb.min - m, cb.max + m);
-            let touched = match f.triangles.get(t) {
-                Some(p) => {
-                    p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
-                        || triangle_box_overlap(cb.center(), (cb.max - cb.min) * 0.5 + m, p)
-                }
-                None => f.solid_touches(t - f.triangles.len(), lo, hi),
+            let given = got >> c & 1 == 1;
+            let Some(p) = f.triangles.get(t) else {
+                let touched = f.solid_touches(t - f.triangles.len(), cb.min - m, cb.max + m);
+                assert_eq!(
+                    given,
+                    candidates >> c & 1 == 1 && touched,
+                    "solid {t}, child {c}"
+                );
+                continue;
             };
-            mask |= u8::from(touched) << c;
+            if candidates >> c & 1 == 1 && touches_in_f64(p, cb.min, cb.max) {
+                assert!(given, "triangle {t} {p:?} touches child {c} of {cell:?}");
+            }
+            if given {
+                let near = touches_in_f64(p, cb.min - m * 2.0, cb.max + m * 2.0);
+                assert!(near, "triangle {t} {p:?} is far from child {c} of {cell:?}");
+            }
         }
-        mask
     }
 
     /// Coordinates around the cell `0..4` on every axis: its faces and centre planes, the grown
@@ -276,24 +303,22 @@ mod tests {
         Vec3::new(next(), next(), next())
     }
 
-    #[test]
-    fn children_touched_is_the_child_by_child_answer() {
+    /// Triangles and solids in and around the cell `0..4` moved by `corner`.
+    fn primitives(corner: Vec3) -> (Vec<[Vec3; 3]>, Vec<SolidExtent>) {
         let mut next = coordinates();
+        let mut point = move || point(&mut next) + corner;
         // Small triangles near the planes and large ones across the cell.
         let triangles: Vec<[Vec3; 3]> = (0..30_000)
             .map(|i| {
-                let a = point(&mut next);
+                let a = point();
                 let scale = if i % 2 == 0 { 0.3 } else { 1.0 };
-                [
-                    a,
-                    a + (point(&mut next) - a) * scale,
-                    a + (point(&mut next) - a) * scale,
-                ]
+                [a, a + (point() - a) * scale, a + (point() - a) * scale]
             })
             .collect();
+        let mut next = coordinates();
         let solids: Vec<SolidExtent> = (0..3_000)
             .map(|i| {
-                let (center, radius) = (point(&mut next), next().abs() * 0.8 + 0.05);
+                let (center, radius) = (point(), next().abs() * 0.8 + 0.05);
                 let bounds = Aabb {
                     min: center - Vec3::splat(radius),
                     max: center + Vec3::splat(radius),
@@ -318,21 +343,30 @@ mod tests {
                 }
             })
             .collect();
+        (triangles, solids)
+    }
+
+    /// Files the primitives filed in the cell `0..4` moved by `corner` (as its parent's filing
+    /// would have) in its children with the build's margin for that place, or `margin` if
+    /// larger, and checks each answer; returns how often each number of children was given.
+    fn file_and_check(corner: Vec3, margin: f32) -> [usize; 9] {
+        let (triangles, solids) = primitives(corner);
         let reach: Vec<Aabb> = solids
             .iter()
             .map(|s| reject_box(&s.bounds().unwrap_or(Aabb::EMPTY)))
             .collect();
         let mut boxes: Vec<Aabb> = triangles.iter().map(Aabb::of_triangle).collect();
         boxes.extend_from_slice(&reach);
+        let cell = Aabb {
+            min: corner,
+            max: corner + Vec3::splat(4.0),
+        };
+        let magnitude = cell.min.abs().max(cell.max.abs()).max_element();
         let filing = Filing {
             triangles: &triangles,
             reach,
             solids: &solids,
-            margin: 1e-5,
-        };
-        let cell = Aabb {
-            min: Vec3::ZERO,
-            max: Vec3::splat(4.0),
+            margin: margin.max(magnitude * gamma(MARGIN_GAMMA)),
         };
         let cells = ChildCells::new(&cell, filing.margin);
         let mut counts = [0usize; 9];
@@ -341,23 +375,91 @@ mod tests {
             cell.max + Vec3::splat(filing.margin),
         );
         let in_parent = |t: usize| match triangles.get(t) {
-            Some(p) => {
-                p.iter().any(|v| v.cmpge(lo).all() && v.cmple(hi).all())
-                    || triangle_box_overlap(cell.center(), (hi - lo) * 0.5, p)
-            }
+            Some(p) => touches_in_f64(p, lo, hi),
             None => filing.solid_touches(t - triangles.len(), lo, hi),
         };
-        // The primitives filed in the cell, as its parent's filing would have.
         for t in (0..triangles.len() + solids.len()).filter(|&t| in_parent(t)) {
             let got = filing.children_touched(&cells, t);
-            assert_eq!(
-                got,
-                touched_child_by_child(&filing, &boxes, &cell, t),
-                "primitive {t}"
-            );
+            check_children(&filing, &boxes[t], &cell, t, got);
             counts[got.count_ones() as usize] += 1;
         }
+        counts
+    }
+
+    #[test]
+    fn children_touched_holds_every_child_touched_and_none_far() {
+        // Around the origin, with a margin wider than the rounding, so that the coordinates
+        // placed a rounding step off the grown children's sides are told apart.
+        let counts = file_and_check(Vec3::ZERO, 1e-5);
         // Every number of children from one to all eight occurs.
         assert!(counts[1..].iter().all(|&n| n > 500), "{counts:?}");
+        // Far from the origin, with the build's margin: the cell is 64 rounding steps wide
+        // there, and the margin 24 steps of the largest coordinate.
+        let counts = file_and_check(Vec3::new(1000.0, -1000.0, 250.0), 0.0);
+        assert!(counts[1..].iter().all(|&n| n > 100), "{counts:?}");
+    }
+
+    /// Triangles that touch the corner `k` of a box whose centre lies towards `−s` (a sign per
+    /// axis) at that corner alone, with their vertices then moved by up to four rounding steps
+    /// (`next` picks): one whose plane holds the corner inside the triangle (the plane's axis
+    /// decides), and one with an edge through it (an edge axis decides).
+    fn grazing(k: Vec3, s: Vec3, next: &mut impl FnMut() -> u32) -> [[Vec3; 3]; 2] {
+        let mut size = || 0.25 * (1 + next() % 8) as f32;
+        let (a, b, c) = (size(), size(), size());
+        let u = Vec3::new(a * s.x, -a * s.y, 0.0);
+        let v = Vec3::new(0.0, b * s.y, -b * s.z);
+        let d = Vec3::new(a * s.x, -a * s.y, 0.0);
+        let mut nudge = |x: f32| {
+            let steps = next() % 9;
+            (0..steps % 5).fold(x, |x, _| {
+                if steps > 4 {
+                    next_float_up(x)
+                } else {
+                    next_float_down(x)
+                }
+            })
+        };
+        [
+            [k + u * 2.0, k + v * 2.0, k - (u + v) * 2.0],
+            [k + d, k - d, k + s * c],
+        ]
+        .map(|t| t.map(|p| Vec3::new(nudge(p.x), nudge(p.y), nudge(p.z))))
+    }
+
+    #[test]
+    fn triangles_grazing_a_child_at_a_corner_are_filed_in_it() {
+        let cell = Aabb {
+            min: Vec3::new(1000.0, -1000.0, 250.0),
+            max: Vec3::new(1004.0, -996.0, 254.0),
+        };
+        let mut triangles = Vec::new();
+        let mut next = xorshift(0x1b87_3593);
+        let mid = cell.center();
+        for c in 0..8 {
+            let b = child_box(&cell, mid, c);
+            for corner in 0..8 {
+                // Bit `a` of `corner` picks the upper side on axis `a`.
+                let upper = glam::BVec3::new(corner & 1 != 0, corner & 2 != 0, corner & 4 != 0);
+                let s = Vec3::select(upper, Vec3::ONE, -Vec3::ONE);
+                let k = Vec3::select(upper, b.max, b.min);
+                for _ in 0..400 {
+                    triangles.extend(grazing(k, s, &mut next));
+                }
+            }
+        }
+        let filing = Filing {
+            triangles: &triangles,
+            reach: Vec::new(),
+            solids: &[],
+            margin: 1004.0 * gamma(MARGIN_GAMMA),
+        };
+        let cells = ChildCells::new(&cell, filing.margin);
+        let mut given = 0;
+        for (t, p) in triangles.iter().enumerate() {
+            let got = filing.children_touched(&cells, t);
+            check_children(&filing, &Aabb::of_triangle(p), &cell, t, got);
+            given += got.count_ones();
+        }
+        assert!(given > 0);
     }
 }

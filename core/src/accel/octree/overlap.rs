@@ -60,54 +60,129 @@ pub(super) fn segment_box_overlap(a: Vec3, b: Vec3, reach: f32, lo: Vec3, hi: Ve
     enter <= leave
 }
 
-/// True unless one of the 13 separating axes (3 box faces, the triangle's plane, 9 edge cross
-/// products) separates the triangle from the box `centre ± half`. Touching counts as overlap.
+/// A triangle's separating axes (Akenine-Möller's 13: the box's faces, the triangle's plane,
+/// and each edge crossed with each box axis), with the triangle's extent along each, made once
+/// and asked about several children of one cell ([`TriangleAxes::misses`]). Positions are taken
+/// relative to the cell's centre `mid`; a child is the box `mid + offset ± half`.
 ///
-/// Each group of three axes is decided in the lanes of one [`Vec3A`]: lane `a` computes exactly
-/// what a scalar test of axis `a` computes (the same products and sums in the same order), and
-/// the comparisons replace the minimum and maximum of three projections (the same answer for
-/// the finite coordinates the build files), so the answer is the scalar test's on every target.
-pub(super) fn triangle_box_overlap(center: Vec3, half: Vec3, tri: &[Vec3; 3]) -> bool {
-    let (c, h) = (Vec3A::from(center), Vec3A::from(half));
-    let v = [
-        Vec3A::from(tri[0]) - c,
-        Vec3A::from(tri[1]) - c,
-        Vec3A::from(tri[2]) - c,
-    ];
-    // Box face normals: the triangle's extent on each axis.
-    if separated(v, h) {
-        return false;
-    }
-    let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
-    // The triangle's plane: `Vec3::cross` and `Vec3::dot` lane by lane, summed in their order.
-    let n = e[0].yzx() * e[1].zxy() - e[1].yzx() * e[0].zxy();
-    let sum = |p: Vec3A| p.x + p.y + p.z;
-    if sum(n * v[0]).abs() > sum(h * n.abs()) {
-        return false;
-    }
-    // Cross products of the box axes with an edge: axis `a` crossed with the edge has a zero in
-    // component `a`, so each projection is a sum of two products (the same numbers as the full
-    // dot products, but for the sign of a zero, which no comparison sees). In lane `a`, with
-    // `(i, j)` the two axes after `a`: unit(a) × edge = (.., −edge[j] at i, edge[i] at j, ..).
-    let (hi, hj) = (h.yzx(), h.zxy());
-    for edge in e {
-        let (ai, aj) = (-edge.zxy(), edge.yzx());
-        let project = |p: Vec3A| ai * p.yzx() + aj * p.zxy();
-        let r = hi * ai.abs() + hj * aj.abs();
-        if separated([project(v[0]), project(v[1]), project(v[2])], r) {
-            return false;
-        }
-    }
-    true
+/// The extents along the plane and edge axes are widened by the children's radius along them
+/// (`half` projected), so a child needs only the projection of its offset: a child is separated
+/// where that lies outside the widened extent. Touching counts as overlap.
+///
+/// Rounding: any axis separates if the projections are exact, so only they need a bound. With
+/// `M` the largest coordinate of the root cell (every vertex and cell lies within it) and `S` an
+/// axis's sum of absolute components, the vertices' projections are within 6 ε·M·S of exact
+/// (ε = 2⁻²⁴: the vertex's difference from `mid`, two products and a sum), the radius 2 ε·M·S,
+/// the widening 3 ε·M·S, the offset's projection 2 ε·M·S, and the child's offset and half 4 ε·M·S
+/// from its box ([`super::filing::ChildCells`]): 17 ε·M·S; on the plane axis (three products
+/// and two sums each) 21 ε·M·S. The build grows `half` by [`MARGIN_GAMMA`]·M, which adds that
+/// many times `M·S` to every radius, so a child the triangle touches is never found separated.
+pub(super) struct TriangleAxes {
+    /// The triangle's box.
+    min: Vec3A,
+    max: Vec3A,
+    /// The plane's normal, and the triangle's extent along it widened by the children's radius.
+    normal: Vec3A,
+    plane: (f32, f32),
+    /// Per edge, lane `a` for its cross product with axis `a`.
+    edges: [EdgeAxes; 3],
 }
 
-/// True if in some lane all three of `p` lie above `r` or all below `−r`: the interval the
-/// three projections span misses `−r..r` on that lane's axis.
-#[inline]
-fn separated(p: [Vec3A; 3], r: Vec3A) -> bool {
-    let above = p[0].cmpgt(r) & p[1].cmpgt(r) & p[2].cmpgt(r);
-    let below = p[0].cmplt(-r) & p[1].cmplt(-r) & p[2].cmplt(-r);
-    (above | below).any()
+/// The three axes of one edge: lane `a` holds unit(a) × edge, whose nonzero components are `i`
+/// at axis `a + 1` and `j` at axis `a + 2` (`−edge[a + 2]` and `edge[a + 1]`), and the
+/// triangle's extent along it, widened by the children's radius.
+struct EdgeAxes {
+    i: Vec3A,
+    j: Vec3A,
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+/// The margin's factor in [`gamma`](crate::math::float::gamma)s of the root's largest
+/// coordinate: it covers [`TriangleAxes`]' rounding (at most 21 ε of it).
+pub(super) const MARGIN_GAMMA: u32 = 24;
+
+impl TriangleAxes {
+    /// The axes of `tri` for children of half size `half` (grown by the margin) of the cell
+    /// centred at `mid`.
+    pub(super) fn new(tri: &[Vec3; 3], mid: Vec3A, half: Vec3A) -> TriangleAxes {
+        let p = tri.map(Vec3A::from);
+        let u = p.map(|p| p - mid);
+        let e = [u[1] - u[0], u[2] - u[1], u[0] - u[2]];
+        let normal = e[0].yzx() * e[1].zxy() - e[1].yzx() * e[0].zxy();
+        let sum = |v: Vec3A| v.x + v.y + v.z;
+        let d = u.map(|u| sum(normal * u));
+        let r = sum(half * normal.abs());
+        let (hi, hj) = (half.yzx(), half.zxy());
+        TriangleAxes {
+            min: p[0].min(p[1]).min(p[2]),
+            max: p[0].max(p[1]).max(p[2]),
+            normal,
+            plane: (d[0].min(d[1]).min(d[2]) - r, d[0].max(d[1]).max(d[2]) + r),
+            edges: e.map(|edge| {
+                let (i, j) = (-edge.zxy(), edge.yzx());
+                let at = u.map(|u| i * u.yzx() + j * u.zxy());
+                let r = hi * i.abs() + hj * j.abs();
+                EdgeAxes {
+                    i,
+                    j,
+                    lo: at[0].min(at[1]).min(at[2]) - r,
+                    hi: at[0].max(at[1]).max(at[2]) + r,
+                }
+            }),
+        }
+    }
+
+    /// True if one of the axes separates the triangle from the child `mid + offset ± half`,
+    /// whose box grown by the margin is `lo..hi` (for the face axes, compared exactly).
+    #[inline]
+    pub(super) fn misses(&self, offset: Vec3A, lo: Vec3A, hi: Vec3A) -> bool {
+        if (self.min.cmpgt(hi) | self.max.cmplt(lo)).any() {
+            return true;
+        }
+        let at = offset * self.normal;
+        let at = at.x + at.y + at.z;
+        if at < self.plane.0 || at > self.plane.1 {
+            return true;
+        }
+        self.edges.iter().any(|e| {
+            let at = e.i * offset.yzx() + e.j * offset.zxy();
+            (at.cmplt(e.lo) | at.cmpgt(e.hi)).any()
+        })
+    }
+}
+
+/// The separating-axis test in `f64` against the box `lo..hi`, from the triangle's `f32`
+/// vertices: the reference for the `f32` filing's error bound, whose rounding (about 10⁻¹⁶ of the
+/// coordinates) is far below the margin's.
+#[cfg(test)]
+pub(super) fn touches_in_f64(tri: &[Vec3; 3], lo: Vec3, hi: Vec3) -> bool {
+    type D3 = [f64; 3];
+    let sub = |a: D3, b: D3| -> D3 { core::array::from_fn(|k| a[k] - b[k]) };
+    let dot = |a: D3, b: D3| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: D3, b: D3| -> D3 {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let wide = |v: Vec3| -> D3 { v.to_array().map(f64::from) };
+    let (lo, hi) = (wide(lo), wide(hi));
+    let c: D3 = core::array::from_fn(|k| (lo[k] + hi[k]) * 0.5);
+    let h: D3 = core::array::from_fn(|k| (hi[k] - lo[k]) * 0.5);
+    let v = tri.map(|p| sub(wide(p), c));
+    let e = [sub(v[1], v[0]), sub(v[2], v[1]), sub(v[0], v[2])];
+    let units = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let mut axes = alloc::vec![units[0], units[1], units[2], cross(e[0], e[1])];
+    for edge in e {
+        axes.extend(units.map(|unit| cross(unit, edge)));
+    }
+    axes.iter().all(|&axis| {
+        let p = v.map(|v| dot(axis, v));
+        let r = dot(h, axis.map(f64::abs));
+        p[0].min(p[1]).min(p[2]) <= r && p[0].max(p[1]).max(p[2]) >= -r
+    })
 }
 
 #[cfg(test)]
@@ -244,87 +319,11 @@ mod tests {
         assert!(!segment_box_overlap(along(-1.0), along(-0.5), 0.3, lo, hi));
     }
 
-    /// The separating-axis test with every edge axis built as a full cross product and every
-    /// projection as a full dot product: what [`triangle_box_overlap`] computed before its edge
-    /// axes were written out.
-    fn overlap_with_full_products(center: Vec3, half: Vec3, tri: &[Vec3; 3]) -> bool {
-        let v = [tri[0] - center, tri[1] - center, tri[2] - center];
-        faces_and_plane_overlap(half, &v) && edge_axes_overlap(half, &v)
-    }
-
-    /// The box's face axes and the triangle's plane (`v` relative to the box's centre).
-    fn faces_and_plane_overlap(half: Vec3, v: &[Vec3; 3]) -> bool {
-        for a in 0..3 {
-            let lo = v[0][a].min(v[1][a]).min(v[2][a]);
-            let hi = v[0][a].max(v[1][a]).max(v[2][a]);
-            if lo > half[a] || hi < -half[a] {
-                return false;
-            }
-        }
-        let n = (v[1] - v[0]).cross(v[2] - v[1]);
-        n.dot(v[0]).abs() <= half.dot(n.abs())
-    }
-
-    /// The nine edge axes, as full cross and dot products.
-    fn edge_axes_overlap(half: Vec3, v: &[Vec3; 3]) -> bool {
-        for edge in [v[1] - v[0], v[2] - v[1], v[0] - v[2]] {
-            for unit in [Vec3::X, Vec3::Y, Vec3::Z] {
-                let axis = unit.cross(edge);
-                let p = [axis.dot(v[0]), axis.dot(v[1]), axis.dot(v[2])];
-                let r = half.dot(axis.abs());
-                if p[0].min(p[1]).min(p[2]) > r || p[0].max(p[1]).max(p[2]) < -r {
-                    return false;
-                }
-            }
-        }
-        true
-    }
-
-    /// A fixed sequence of coordinates around the box `[-1, 1]³`: its faces, its centre, values
-    /// a rounding step off them, and values spread between.
-    fn coordinates() -> impl FnMut() -> f32 {
-        let mut next = xorshift(0x9e37_79b9);
-        move || {
-            let state = next();
-            let special = [-1.0, 1.0, 0.0, -1.000_000_1, 1.000_000_1, 0.999_999_94, 3.0];
-            let u = state as f32 / u32::MAX as f32;
-            if state % 3 == 0 {
-                special[(state >> 8) as usize % special.len()]
-            } else {
-                u * 6.0 - 3.0
-            }
-        }
-    }
-
-    #[test]
-    fn written_out_edge_axes_in_lanes_decide_as_full_products() {
-        let mut next = coordinates();
-        let (mut overlaps, mut by_edges) = (0, 0);
-        // Centres off the origin too, where `tri − center` rounds.
-        let centers = [
-            Vec3::ZERO,
-            Vec3::new(0.3, -1.7, 2.9),
-            Vec3::new(-1e3, 37.1, 0.01),
-        ];
-        for k in 0..200_000 {
-            let center = centers[k % centers.len()];
-            let tri = [(); 3].map(|_| Vec3::new(next(), next(), next()) + center);
-            let half = Vec3::ONE + Vec3::new(next(), 0.0, next()).abs() * 0.25;
-            let got = triangle_box_overlap(center, half, &tri);
-            assert_eq!(
-                got,
-                overlap_with_full_products(center, half, &tri),
-                "{tri:?} around {center}"
-            );
-            overlaps += usize::from(got);
-            let v = tri.map(|p| p - center);
-            by_edges += usize::from(!got && faces_and_plane_overlap(half, &v));
-        }
-        // Both answers occur often, and many separations are found by an edge axis alone.
-        assert!(
-            overlaps > 20_000 && by_edges > 5_000,
-            "{overlaps} / {by_edges}"
-        );
+    /// The separating-axis test in one call: the triangle against the box `center ± half`.
+    fn overlaps(center: Vec3, half: Vec3, tri: &[Vec3; 3]) -> bool {
+        let (c, h) = (Vec3A::from(center), Vec3A::from(half));
+        let axes = TriangleAxes::new(tri, c, h);
+        !axes.misses(Vec3A::ZERO, c - h, c + h)
     }
 
     #[test]
@@ -336,22 +335,31 @@ mod tests {
             Vec3::new(0.5, 0.0, 0.0),
             Vec3::new(0.0, 0.5, 0.0),
         ];
-        assert!(triangle_box_overlap(c, h, &inside));
+        assert!(overlaps(c, h, &inside));
         let far = inside.map(|p| p + Vec3::new(5.0, 0.0, 0.0));
-        assert!(!triangle_box_overlap(c, h, &far));
+        assert!(!overlaps(c, h, &far));
         // Touches the face x = 1 at a vertex.
         let touch = [
             Vec3::new(1.0, 0.0, 0.0),
             Vec3::new(2.0, 0.0, 0.0),
             Vec3::new(2.0, 0.5, 0.0),
         ];
-        assert!(triangle_box_overlap(c, h, &touch));
+        assert!(overlaps(c, h, &touch));
         // Its bounding box overlaps the corner, the triangle does not (diagonal edge axis).
         let diag = [
             Vec3::new(2.5, 0.0, 0.0),
             Vec3::new(0.0, 2.5, 0.0),
             Vec3::new(2.5, 2.5, 0.0),
         ];
-        assert!(!triangle_box_overlap(c, h, &diag));
+        assert!(!overlaps(c, h, &diag));
+        // A slanted triangle whose box holds the whole box, its plane (x + y + z = −3.3) passing
+        // beyond the corner at −3: found by the plane's axis alone.
+        let slanted = [
+            Vec3::new(16.7, -10.0, -10.0),
+            Vec3::new(-10.0, 16.7, -10.0),
+            Vec3::new(-10.0, -10.0, 16.7),
+        ];
+        assert!(!overlaps(c, h, &slanted));
+        assert!(overlaps(c, h * 1.2, &slanted));
     }
 }
