@@ -652,3 +652,77 @@ fn more_solids_than_the_limit_is_an_error_at_the_line_that_passes_it() {
         "{err}"
     );
 }
+
+/// A U in the plane y = 0 facing the camera: a 3 × 3 square with a 1 × 2 notch cut from the top
+/// of its middle, its corners listed from the lower left, where the fan around the first corner
+/// would cover part of the notch.
+const U_CORNERS: [[f32; 2]; 8] = [
+    [-1.5, -1.5],
+    [1.5, -1.5],
+    [1.5, 1.5],
+    [0.5, 1.5],
+    [0.5, -0.5],
+    [-0.5, -0.5],
+    [-0.5, 1.5],
+    [-1.5, 1.5],
+];
+
+/// `p` records of the corners given, each `[x, z]` in the plane y = 0.
+fn polygons(faces: &[&[[f32; 2]]]) -> String {
+    faces
+        .iter()
+        .map(|corners| {
+            let points: Vec<String> = corners.iter().map(|[x, z]| format!("{x} 0 {z}")).collect();
+            format!("p {}\n{}\n", corners.len(), points.join("\n"))
+        })
+        .collect()
+}
+
+#[test]
+fn a_concave_polygon_covers_itself_and_not_its_notch() {
+    let desc = scene_of(&polygons(&[&U_CORNERS]));
+    assert_eq!(desc.triangles.len(), 6);
+    let corners = |t: &TriangleDesc| t.points.map(|i| desc.points[i as usize]);
+    // Twice the area each triangle covers, seen from the camera (−y), and whether it holds `q`.
+    let area = |[a, b, c]: [Vec3; 3]| (b - a).cross(c - a).y;
+    let holds = |[a, b, c]: [Vec3; 3], q: Vec3| {
+        [area([a, b, q]), area([b, c, q]), area([c, a, q])]
+            .iter()
+            .all(|&s| s * area([a, b, c]) > 0.0)
+    };
+    let total: f32 = desc.triangles.iter().map(|t| area(corners(t)).abs()).sum();
+    assert_eq!(total, 2.0 * 7.0, "the U's area is 9 − 2");
+    for (q, count) in [
+        (Vec3::new(0.3, 0.0, 1.0), 0),
+        (Vec3::new(-1.0, 0.0, 1.0), 1),
+    ] {
+        let n = desc
+            .triangles
+            .iter()
+            .filter(|t| holds(corners(t), q))
+            .count();
+        assert_eq!(n, count, "{q}");
+    }
+    // Rendered, the U lights as many pixels as its three rectangles, and fewer than the fan
+    // around its first corner, which fills part of the notch.
+    let sized = |body: String| {
+        let mut desc = scene_of(&body);
+        (desc.settings.width, desc.settings.height) = (64, 64);
+        lit_pixels(&desc)
+    };
+    let [a, b, c, d, e, f, g, h] = U_CORNERS;
+    let rectangles = polygons(&[
+        &[a, [-0.5, -1.5], f, g, h],
+        &[[-0.5, -1.5], [0.5, -1.5], e, f],
+        &[[0.5, -1.5], b, c, d, e],
+    ]);
+    let fan: Vec<[[f32; 2]; 3]> = U_CORNERS
+        .windows(2)
+        .skip(1)
+        .map(|w| [a, w[0], w[1]])
+        .collect();
+    let fan = polygons(&fan.iter().map(|t| &t[..]).collect::<Vec<_>>());
+    let u = sized(polygons(&[&U_CORNERS]));
+    assert_eq!(u, sized(rectangles));
+    assert!(u + 20 < sized(fan), "{u}");
+}

@@ -494,3 +494,29 @@ fn convert_can_keep_z_up_and_rejects_bad_names() {
         "{err}"
     );
 }
+
+#[test]
+fn a_concave_face_is_cut_into_ears_and_a_convex_one_fanned() {
+    // An L of six corners with normals, from the corner that does not see the whole of it, then
+    // a convex quad.
+    let dir = tempfile::tempdir().expect("temp dir");
+    let obj = write(
+        &dir,
+        "l.obj",
+        "v 2 0 0\nv 2 1 0\nv 1 1 0\nv 1 2 0\nv 0 2 0\nv 0 0 0\nvn 0 0 1\n\
+         f 1//1 2//1 3//1 4//1 5//1 6//1\nf 1 2 3 6\n",
+    );
+    let mesh = read_obj(&obj).unwrap_or_else(|e| panic!("{e}"));
+    let corners = |t: &ObjTriangle| t.points.map(|i| mesh.points[i as usize]);
+    let area = |[a, b, c]: [Vec3; 3]| (b - a).cross(c - a).z;
+    let (l, quad) = mesh.triangles.split_at(4);
+    // Every triangle of the L turns as the face does, and they cover its area (4 − 1) once.
+    assert!(l.iter().all(|t| area(corners(t)) > 0.0));
+    assert_eq!(l.iter().map(|t| area(corners(t))).sum::<f32>(), 2.0 * 3.0);
+    assert!(l.iter().all(|t| t.normals == Some([0, 0, 0])));
+    // The fan around the first corner would have turned backwards across the notch.
+    let first = Vec3::new(2.0, 0.0, 0.0);
+    assert!(area([first, Vec3::new(1.0, 1.0, 0.0), Vec3::new(1.0, 2.0, 0.0)]) < 0.0);
+    let fanned: Vec<[u32; 3]> = quad.iter().map(|t| t.points).collect();
+    assert_eq!(fanned, vec![[0, 1, 2], [0, 2, 5]]);
+}

@@ -44,7 +44,7 @@ const FORMATS: LayerMap = LayerMap {
     src: "host/formats/src",
     layers: &[
         &["error", "fs", "limits"],
-        &["lines"],
+        &["lines", "polygon"],
         &["config", "datafile", "obj", "hosts", "crease"],
         &["mesh", "nff", "fart"],
         &["convert", "load"],

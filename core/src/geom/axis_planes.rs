@@ -1,5 +1,5 @@
-//! Triangles that share one axis-aligned plane: a floor split into two triangles, the faces of a
-//! gear fanned out from one polygon.
+//! Triangles that share one axis-aligned plane: a floor split into two triangles, the triangles
+//! of a gear's face cut from one polygon.
 //!
 //! A shadow ray leaves a triangle from a point moved off the triangle's plane to the side it
 //! goes, so it meets that plane at `t ≤ 0`, and the triangle test, which reports only a `t`

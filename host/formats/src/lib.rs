@@ -10,6 +10,7 @@
 //! | [`nff`] | Eric Haines' Neutral File Format (`.nff`) | [`nff::load_nff`] | |
 //! | [`obj`] | Wavefront OBJ meshes and their `.mtl` materials | [`obj::read_obj_file`] | |
 //! | [`mesh`] | placing a read mesh into a scene | | |
+//! | [`polygon`] | faces of more than three corners split into triangles (a fan where it covers the face once, else ear clipping) | | |
 //! | [`crease`] | hard edges where a format has no normals: points split at sharp angles | | |
 //! | [`fart`] | FART's scene language (`.fart`): lexer, parser, expander | [`fart::load_fart`] | |
 //! | [`hosts`] | FART's hosts file | [`hosts::read_hosts_file`] | |
@@ -38,3 +39,4 @@ pub mod load;
 pub mod mesh;
 pub mod nff;
 pub mod obj;
+pub mod polygon;

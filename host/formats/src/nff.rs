@@ -12,7 +12,7 @@
 //! | `f r g b Kd Ks Shine T ior` | a [`Shader`] for the primitives that follow, with NFF's additive [`Blend`] (see [`shader_from_nff`]) |
 //! | `c bx by bz br ax ay az ar` | a cone frustum [`Shape::Cylinder`] from base to apex, **capped** (NFF's is open) |
 //! | `s x y z r` | a [`Shape::Sphere`] |
-//! | `p n` + `n` vertices `x y z` | a convex polygon, split into a fan of `n − 2` triangles (flat: its points are its own) |
+//! | `p n` + `n` vertices `x y z` | a polygon, split into `n − 2` triangles ([`triangulate`]: a fan around its first corner where that covers it once, else ear clipping; flat: its points are its own) |
 //! | `pp n` + `n` vertices `x y z nx ny nz` | the same with a shading normal at each corner |
 //! | `#` | a comment line |
 //!
@@ -40,6 +40,7 @@
 use crate::error::LoadError;
 use crate::limits::{MAX_SHAPES, MAX_TRIANGLES};
 use crate::lines::read_text;
+use crate::polygon::triangulate;
 use glam::{Mat3, Quat, Vec3};
 use std::fmt;
 use std::path::Path;
@@ -79,6 +80,7 @@ pub fn parse_nff(path: &Path, text: &str) -> Result<SceneDesc, LoadError> {
         shader: None,
         view_seen: false,
         background_seen: false,
+        corners: Vec::new(),
     };
     p.run()?;
     p.finish()
@@ -244,6 +246,8 @@ struct Parser<'a> {
     shader: Option<u32>,
     view_seen: bool,
     background_seen: bool,
+    /// Reused for each polygon's triangles (corner indices local to it).
+    corners: Vec<[u32; 3]>,
 }
 
 /// "`p` vertex 2 of 4", for messages about one vertex of a polygon.
@@ -741,7 +745,7 @@ impl<'a> Parser<'a> {
                 format!("more than {MAX_TRIANGLES} triangles (polygons count n − 2 each)"),
             ));
         }
-        self.fan(n, p0, with_normals.then_some(n0), shader);
+        self.triangles_of(n, p0, with_normals.then_some(n0), shader);
         Ok(())
     }
 
@@ -761,17 +765,22 @@ impl<'a> Parser<'a> {
         Ok(())
     }
 
-    /// The `n − 2` triangles of a fan around corner 0 of a polygon whose `n` points start at
-    /// `p0` (and its normals, if any, at `n0`).
-    fn fan(&mut self, n: u32, p0: u32, n0: Option<u32>, shader: u32) {
-        for k in 1..n.saturating_sub(1) {
-            let corners = [0, k, k + 1];
+    /// The `n − 2` triangles of the polygon whose `n` points start at `p0` (and its normals, if
+    /// any, at `n0`): a fan around corner 0 where it covers the polygon once, else cut by ear
+    /// clipping ([`triangulate`]).
+    fn triangles_of(&mut self, n: u32, p0: u32, n0: Option<u32>, shader: u32) {
+        let points = &self.desc.points[p0 as usize..(p0 + n) as usize];
+        let mut corners = std::mem::take(&mut self.corners);
+        corners.clear();
+        triangulate(points, &mut corners);
+        for &local in &corners {
             self.desc.triangles.push(TriangleDesc {
-                points: corners.map(|c| p0 + c),
+                points: local.map(|c| p0 + c),
                 shader,
-                normals: n0.map(|n0| corners.map(|c| n0 + c)),
+                normals: n0.map(|n0| local.map(|c| n0 + c)),
             });
         }
+        self.corners = corners;
     }
 
     /// The vertex count after `p` or `pp`: a whole number, 3 or more.

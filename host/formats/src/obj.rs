@@ -2,8 +2,8 @@
 //!
 //! [`read_obj`] reads the geometry of a file: every `v` (position), every `vn` (normal) and every
 //! `f` (face), with all objects and groups of the file merged into one [`ObjMesh`]. Faces with
-//! more than three corners are split into a fan of triangles around their first corner (convex
-//! polygons are assumed, as in most OBJ readers). [`read_obj_file`] also reads the materials of
+//! more than three corners are split into triangles ([`triangulate`]): a fan around their first
+//! corner where that covers the face once (every convex face), else by ear clipping. [`read_obj_file`] also reads the materials of
 //! the `mtllib` files and records which material (`usemtl`) each triangle has.
 //!
 //! The rules:
@@ -30,6 +30,7 @@
 
 use crate::error::LoadError;
 use crate::limits::MAX_TRIANGLES;
+use crate::polygon::triangulate;
 use glam::Vec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -195,6 +196,9 @@ struct Reader<'p> {
     unknown_materials: Vec<String>,
     /// Reused for the corners of each face.
     corners: Vec<Corner>,
+    /// Reused for the corners' positions and the triangles of each face.
+    positions: Vec<Vec3>,
+    triangles: Vec<[u32; 3]>,
 }
 
 impl<'p> Reader<'p> {
@@ -207,6 +211,8 @@ impl<'p> Reader<'p> {
             current_material: None,
             unknown_materials: Vec::new(),
             corners: Vec::new(),
+            positions: Vec::new(),
+            triangles: Vec::new(),
         }
     }
 
@@ -358,22 +364,37 @@ impl<'p> Reader<'p> {
         if result.is_ok() && total as u64 > MAX_TRIANGLES {
             result = Err(self.at(line, format!("more than {MAX_TRIANGLES} triangles")));
         }
-        if let (Ok(()), Some((first, rest))) = (&result, corners.split_first()) {
-            for pair in rest.windows(2) {
-                let (a, b) = (pair[0], pair[1]);
-                let normals = match (first.1, a.1, b.1) {
-                    (Some(x), Some(y), Some(z)) => Some([x, y, z]),
-                    _ => None,
-                };
-                self.file.mesh.triangles.push(ObjTriangle {
-                    points: [first.0, a.0, b.0],
-                    normals,
-                });
-                self.file.triangle_materials.push(self.current_material);
-            }
+        if result.is_ok() {
+            self.face_triangles(&corners);
         }
         self.corners = corners;
         result
+    }
+
+    /// Adds the triangles of the face `corners` ([`triangulate`]: a fan around the first corner
+    /// where it covers the face once).
+    fn face_triangles(&mut self, corners: &[Corner]) {
+        let (mut positions, mut triangles) = (
+            std::mem::take(&mut self.positions),
+            std::mem::take(&mut self.triangles),
+        );
+        positions.clear();
+        positions.extend(corners.iter().map(|c| self.file.mesh.points[c.0 as usize]));
+        triangles.clear();
+        triangulate(&positions, &mut triangles);
+        for t in &triangles {
+            let [a, b, c] = t.map(|k| corners[k as usize]);
+            let normals = match (a.1, b.1, c.1) {
+                (Some(x), Some(y), Some(z)) => Some([x, y, z]),
+                _ => None,
+            };
+            self.file.mesh.triangles.push(ObjTriangle {
+                points: [a.0, b.0, c.0],
+                normals,
+            });
+            self.file.triangle_materials.push(self.current_material);
+        }
+        (self.positions, self.triangles) = (positions, triangles);
     }
 
     fn face_corners(
