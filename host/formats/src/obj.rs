@@ -3,8 +3,9 @@
 //! [`read_obj`] reads the geometry of a file: every `v` (position), every `vn` (normal) and every
 //! `f` (face), with all objects and groups of the file merged into one [`ObjMesh`]. Faces with
 //! more than three corners are split into triangles ([`triangulate`]): a fan around their first
-//! corner where that covers the face once (every convex face), else by ear clipping. [`read_obj_file`] also reads the materials of
-//! the `mtllib` files and records which material (`usemtl`) each triangle has.
+//! corner where that covers the face once (every convex face), else by ear clipping.
+//! [`read_obj_file`] also reads the materials of the `mtllib` files and records which material
+//! (`usemtl`) each triangle has.
 //!
 //! The rules:
 //!

@@ -393,8 +393,8 @@ mod tests {
         let counts = file_and_check(Vec3::ZERO, 1e-5);
         // Every number of children from one to all eight occurs.
         assert!(counts[1..].iter().all(|&n| n > 500), "{counts:?}");
-        // Far from the origin, with the build's margin: the cell is 64 rounding steps wide
-        // there, and the margin 24 steps of the largest coordinate.
+        // Far from the origin, with the build's margin: there a rounding step is 2⁻¹⁴ (a
+        // 65,536th of the cell's width), and the margin about 24 steps.
         let counts = file_and_check(Vec3::new(1000.0, -1000.0, 250.0), 0.0);
         assert!(counts[1..].iter().all(|&n| n > 100), "{counts:?}");
     }
@@ -406,9 +406,9 @@ mod tests {
     fn grazing(k: Vec3, s: Vec3, next: &mut impl FnMut() -> u32) -> [[Vec3; 3]; 2] {
         let mut size = || 0.25 * (1 + next() % 8) as f32;
         let (a, b, c) = (size(), size(), size());
+        // Two directions square to `s`.
         let u = Vec3::new(a * s.x, -a * s.y, 0.0);
         let v = Vec3::new(0.0, b * s.y, -b * s.z);
-        let d = Vec3::new(a * s.x, -a * s.y, 0.0);
         let mut nudge = |x: f32| {
             let steps = next() % 9;
             (0..steps % 5).fold(x, |x, _| {
@@ -421,7 +421,7 @@ mod tests {
         };
         [
             [k + u * 2.0, k + v * 2.0, k - (u + v) * 2.0],
-            [k + d, k - d, k + s * c],
+            [k + u, k - u, k + s * c],
         ]
         .map(|t| t.map(|p| Vec3::new(nudge(p.x), nudge(p.y), nudge(p.z))))
     }
@@ -454,12 +454,23 @@ mod tests {
             margin: 1004.0 * gamma(MARGIN_GAMMA),
         };
         let cells = ChildCells::new(&cell, filing.margin);
-        let mut given = 0;
+        let m = Vec3::splat(filing.margin);
+        let mut grazes = 0;
         for (t, p) in triangles.iter().enumerate() {
             let got = filing.children_touched(&cells, t);
             check_children(&filing, &Aabb::of_triangle(p), &cell, t, got);
-            given += got.count_ones();
+            // Children touched with no corner of the triangle in their grown box: decided by
+            // the separating axes.
+            grazes += (0..8)
+                .filter(|&c| {
+                    let b = child_box(&cell, mid, c);
+                    let held = p
+                        .iter()
+                        .any(|v| v.cmpge(b.min - m).all() && v.cmple(b.max + m).all());
+                    !held && touches_in_f64(p, b.min, b.max)
+                })
+                .count();
         }
-        assert!(given > 0);
+        assert!(grazes > 10_000, "{grazes}");
     }
 }

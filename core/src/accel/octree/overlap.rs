@@ -75,8 +75,9 @@ pub(super) fn segment_box_overlap(a: Vec3, b: Vec3, reach: f32, lo: Vec3, hi: Ve
 /// (ε = 2⁻²⁴: the vertex's difference from `mid`, two products and a sum), the radius 2 ε·M·S,
 /// the widening 3 ε·M·S, the offset's projection 2 ε·M·S, and the child's offset and half 4 ε·M·S
 /// from its box ([`super::filing::ChildCells`]): 17 ε·M·S; on the plane axis (three products
-/// and two sums each) 21 ε·M·S. The build grows `half` by [`MARGIN_GAMMA`]·M, which adds that
-/// many times `M·S` to every radius, so a child the triangle touches is never found separated.
+/// and two sums each) 21 ε·M·S. The build grows `half` by `gamma(`[`MARGIN_GAMMA`]`)`·M (a little
+/// over 24 ε·M), which adds that times `S` to every radius, so a child the triangle touches is
+/// never found separated.
 pub(super) struct TriangleAxes {
     /// The triangle's box.
     min: Vec3A,
