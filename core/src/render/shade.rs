@@ -31,7 +31,7 @@
 
 use crate::accel::octree::{per_lane, LANES};
 use crate::geom::triangle::{hit_point, unit_normal};
-use crate::math::ray::{offset_ray_origin, Ray};
+use crate::math::ray::{LeavingOrigins, Ray};
 use crate::render::intersect::{PrimitiveHit, QueryScratch, ShadowMemory};
 use crate::render::optics::{reflect, refract};
 use crate::render::sampling::{hemisphere, mix};
@@ -138,7 +138,6 @@ impl TraceScratch {
 /// The surface at a hit, oriented towards the incoming ray.
 struct Surface {
     point: Vec3,
-    point_error: Vec3,
     /// Geometric normal, unit length, facing the incoming ray.
     geometric: Vec3,
     /// Smooth shading normal, unit length, on the same side as `geometric`.
@@ -151,6 +150,8 @@ struct Surface {
     medium: u32,
     /// The triangle hit, if a triangle was: a ray leaving its plane cannot meet it again.
     triangle: Option<u32>,
+    /// The origins of the rays that leave the surface here, each side's made once.
+    origins: LeavingOrigins,
 }
 
 /// Marks medium keys of triangle meshes (keyed by shader) apart from solids (keyed by object).
@@ -178,13 +179,13 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
             let shader = scene.triangle_shader[t];
             Surface {
                 point,
-                point_error,
                 geometric,
                 shading,
                 entering,
                 shader: shader as usize,
                 medium: MESH_MEDIUM | shader,
                 triangle: Some(t as u32),
+                origins: LeavingOrigins::new(point, point_error, geometric),
             }
         }
         PrimitiveHit::Solid(object, h) => {
@@ -193,13 +194,13 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
             let geometric = if entering { s.normal } else { -s.normal };
             Surface {
                 point: s.point,
-                point_error: s.point_error,
                 geometric,
                 shading: geometric,
                 entering,
                 shader: s.shader as usize,
                 medium: *object,
                 triangle: None,
+                origins: LeavingOrigins::new(s.point, s.point_error, geometric),
             }
         }
     }
@@ -222,7 +223,7 @@ fn ambient_visibility(
             // Below the true surface: the surface itself occludes it.
             continue;
         }
-        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        let origin = s.origins.towards(dir);
         counts.occlusion += 1;
         if !scene.any_hit(&Ray::new(origin, dir), scene.ao_distance, spans) {
             free += 1;
@@ -259,7 +260,7 @@ fn local_color(
         let casts = shadow_ray_matters(settings, light);
         if naive && !(casts && n_dot_l > 0.0) {
             // Without skipping: the ray a naive tracer sends, whose answer cannot matter.
-            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
+            let origin = s.origins.towards(to_light);
             counts.shadow += 1;
             let _ = scene.any_hit(
                 &Ray::new(origin, light.position - origin),
@@ -271,7 +272,7 @@ fn local_color(
             continue;
         }
         if casts {
-            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, to_light);
+            let origin = s.origins.towards(to_light);
             let shadow = Ray::new(origin, light.position - origin);
             counts.shadow += 1;
             if scene.shadowed(
@@ -501,13 +502,13 @@ fn trace_dropped_branches(
 ) {
     if split.mirror_share == 0.0 {
         let dir = reflect(d, s.geometric);
-        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        let origin = s.origins.towards(dir);
         counts.reflection += 1;
         let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
     }
     if split.refraction.is_none() {
         if let Some((dir, _)) = refracted(scene, s, d, &p.media) {
-            let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+            let origin = s.origins.towards(dir);
             counts.refraction += 1;
             let _ = scene.closest_hit(&Ray::new(origin, dir), f32::INFINITY, spans);
         }
@@ -524,7 +525,7 @@ fn push_branches(
     counts: &mut RayCounts,
 ) {
     if let Some((dir, media)) = split.refraction {
-        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        let origin = s.origins.towards(dir);
         pending.push(Pending {
             ray: Ray::new(origin, dir),
             weight: p.weight * split.refract_share,
@@ -539,7 +540,7 @@ fn push_branches(
         if dir.dot(s.geometric) <= 0.0 {
             dir = reflect(d, s.geometric);
         }
-        let origin = offset_ray_origin(s.point, s.point_error, s.geometric, dir);
+        let origin = s.origins.towards(dir);
         pending.push(Pending {
             ray: Ray::new(origin, dir),
             weight: p.weight * split.mirror_share,
