@@ -63,21 +63,23 @@ impl RayFrame {
         } else {
             2
         };
+        // Components picked by index from arrays, as in `intersect`.
+        let (d, o): (&[f32; 3], &[f32; 3]) = (ray.dir.as_ref(), ray.origin.as_ref());
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
-        if ray.dir[kz] < 0.0 {
+        let dz = d[kz];
+        if dz < 0.0 {
             core::mem::swap(&mut kx, &mut ky);
         }
-        let dz = ray.dir[kz];
         // `-d[kx] / dz`, `-d[ky] / dz` and `1 / dz` as one vector division, lane by lane.
-        let shear = Vec3A::new(-ray.dir[kx], -ray.dir[ky], 1.0) / Vec3A::splat(dz);
+        let shear = Vec3A::new(-d[kx], -d[ky], 1.0) / Vec3A::splat(dz);
         RayFrame {
             origin: ray.origin,
             dir: ray.dir,
             kz,
             kx,
             ky,
-            permuted_origin: [ray.origin[kx], ray.origin[ky], ray.origin[kz]],
+            permuted_origin: [o[kx], o[ky], o[kz]],
             sx: shear.x,
             sy: shear.y,
             sz: shear.z,
