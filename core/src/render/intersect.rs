@@ -16,7 +16,7 @@
 //! [`QueryWork`].
 
 use crate::accel::light_buffer::Candidates;
-use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, LANES};
+use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, PacketStack, LANES};
 use crate::accel::work::QueryWork;
 use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::hit::{closer, Closest, RayHit};
@@ -78,11 +78,14 @@ pub enum PrimitiveHit {
     Solid(u32, SolidHit),
 }
 
-/// What one tracer's ray queries reuse and count: the solids' span buffers and the work done.
+/// What one tracer's ray queries reuse and count: the solids' span buffers, the packet walk's
+/// stack and the work done.
 #[derive(Clone, Debug, Default)]
 pub struct QueryScratch {
     /// Buffers of the solids' span evaluation.
     pub spans: SpanScratch,
+    /// The stack of [`Scene::closest_hits4`]'s walk.
+    pub packet_stack: PacketStack,
     /// Cells entered and primitives tested so far.
     pub work: QueryWork,
 }
@@ -393,7 +396,11 @@ impl Scene {
         if self.group_spheres {
             return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
         }
-        let (spans, work) = (&mut scratch.spans, &mut scratch.work);
+        let (spans, work, stack) = (
+            &mut scratch.spans,
+            &mut scratch.work,
+            &mut scratch.packet_stack,
+        );
         let frames = per_lane(|l| QueryFrame::new(&rays[l]));
         let frame4 = RayFrame4::new(&per_lane(|l| frames[l].triangles));
         let n = self.triangle_points.len() as u32;
@@ -408,7 +415,7 @@ impl Scene {
             .then(|| (axis_lanes(&|r| r.origin), axis_lanes(&|r| r.dir)));
         let hits = self
             .octree
-            .closest_hits4(rays, t_max, work, |asked, i, closest| {
+            .closest_hits4(rays, t_max, (work, stack), |asked, i, closest| {
                 let Some(triangle) = self.triangle_points.get(i as usize) else {
                     let mut asked = asked;
                     if let (Some(sphere), Some((origins, dirs))) =

@@ -4,7 +4,10 @@
 //! of neighbouring rays as a camera sends them and rays through cell edges and corners.
 
 use glam::Vec3;
-use strahl_core::accel::octree::{brute_force_closest_hit, lanes_of, Octree, OctreeParams, LANES};
+use std::cell::RefCell;
+use strahl_core::accel::octree::{
+    brute_force_closest_hit, lanes_of, Octree, OctreeParams, PacketStack, LANES,
+};
 use strahl_core::accel::work::QueryWork;
 use strahl_core::geom::triangle::{intersect, RayFrame};
 use strahl_core::math::ray::Ray;
@@ -15,17 +18,30 @@ fn key(h: Option<(u32, f32)>) -> Option<(u32, u32)> {
     h.map(|(i, t)| (i, t.to_bits()))
 }
 
+thread_local! {
+    /// One packet stack for every walk of a test, whatever its tree, as a tracer keeps one:
+    /// what a walk leaves on it must not change the next walk's answers.
+    static STACK: RefCell<PacketStack> = RefCell::default();
+}
+
 /// Compares the four rays' hits walked together with each walked alone and with brute force.
 /// Returns how many of them hit.
 fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
     let frames = rays.each_ref().map(RayFrame::new);
     let mut work = QueryWork::default();
-    let four = tree.closest_hits4(rays, f32::INFINITY, &mut work, |lanes, i, closest| {
-        for l in lanes_of(lanes) {
-            if let Some(h) = intersect(&frames[l], &tris[i as usize], closest[l].bound()) {
-                closest[l].offer(i, h);
-            }
-        }
+    let four = STACK.with_borrow_mut(|stack| {
+        tree.closest_hits4(
+            rays,
+            f32::INFINITY,
+            (&mut work, stack),
+            |lanes, i, closest| {
+                for l in lanes_of(lanes) {
+                    if let Some(h) = intersect(&frames[l], &tris[i as usize], closest[l].bound()) {
+                        closest[l].offer(i, h);
+                    }
+                }
+            },
+        )
     });
     let mut hits = 0;
     for (l, ray) in rays.iter().enumerate() {

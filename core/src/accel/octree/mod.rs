@@ -39,7 +39,7 @@ mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod packet;
-pub use packet::{lanes_of, per_lane, LANES};
+pub use packet::{lanes_of, per_lane, PacketStack, LANES};
 mod traverse;
 pub use crate::geom::hit::GROUP;
 pub use traverse::{GroupBlocks, GroupTests};
