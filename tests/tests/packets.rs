@@ -71,7 +71,7 @@ fn compare(scene: &Scene) -> usize {
             let rays: [_; LANES] = std::array::from_fn(|l| four[l].0);
             let signs = |l: usize| rays[l].dir.to_array().map(|d| d < 0.0);
             together += usize::from((1..LANES).all(|l| signs(l) == signs(0)));
-            let hits = scene.closest_hits4(&rays, f32::INFINITY, &mut query);
+            let hits = scene.closest_hits4(&rays, f32::INFINITY, [None; LANES], &mut query);
             for (l, ray) in rays.iter().enumerate() {
                 let alone = scene.closest_hit(ray, f32::INFINITY, &mut query);
                 assert_eq!(hits[l], alone, "line {y}, pixel {}", k * LANES + l);

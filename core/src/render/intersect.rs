@@ -386,11 +386,15 @@ impl Scene {
     /// The closest hits of four rays with `0 < t < t_max`, each what [`Scene::closest_hit`]
     /// returns for it. Neighbouring camera rays walk the octree together
     /// ([`Octree::closest_hits4`](crate::accel::octree::Octree::closest_hits4)); where lone
-    /// spheres are tested in groups, the rays go one at a time.
+    /// spheres are tested in groups, the rays go one at a time. `leaving[l]` is the triangle
+    /// ray `l` leaves, if it leaves one (its origin moved off that triangle's plane by
+    /// [`LeavingOrigins`](crate::math::ray::LeavingOrigins), towards its direction): the ray
+    /// cannot meet it again, as [`Scene::shadowed`] says, so it is not tested.
     pub fn closest_hits4(
         &self,
         rays: &[Ray; LANES],
         t_max: f32,
+        leaving: [Option<u32>; LANES],
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
         if self.group_spheres {
@@ -413,43 +417,45 @@ impl Scene {
             .solids
             .has_lone_spheres()
             .then(|| (axis_lanes(&|r| r.origin), axis_lanes(&|r| r.dir)));
-        let hits = self
-            .octree
-            .closest_hits4(rays, t_max, (work, stack), |asked, i, closest| {
-                let Some(triangle) = self.triangle_points.get(i as usize) else {
-                    let mut asked = asked;
-                    if let (Some(sphere), Some((origins, dirs))) =
-                        (self.solids.lone_sphere(i - n), &lanes)
-                    {
-                        // The four rays' sure misses at once: most tests of a sphere end there.
-                        asked &= !sphere.surely_missed_by4(origins, dirs);
-                    }
-                    for l in lanes_of(asked) {
-                        let (j, bound) = (i - n, closest[l].bound());
-                        let hit = self.solids.first_hit_in_box(
-                            j,
-                            &rays[l],
-                            frames[l].inv_dir,
-                            bound,
-                            spans,
-                        );
-                        if let Some(h) = hit {
-                            closest[l].offer(i, PrimitiveHit::Solid(j, h));
+        let hits =
+            self.octree
+                .closest_hits4(rays, t_max, leaving, (work, stack), |asked, i, closest| {
+                    let Some(triangle) = self.triangle_points.get(i as usize) else {
+                        let mut asked = asked;
+                        if let (Some(sphere), Some((origins, dirs))) =
+                            (self.solids.lone_sphere(i - n), &lanes)
+                        {
+                            // The four rays' sure misses at once: most tests of a sphere end there.
+                            asked &= !sphere.surely_missed_by4(origins, dirs);
+                        }
+                        for l in lanes_of(asked) {
+                            let (j, bound) = (i - n, closest[l].bound());
+                            let hit = self.solids.first_hit_in_box(
+                                j,
+                                &rays[l],
+                                frames[l].inv_dir,
+                                bound,
+                                spans,
+                            );
+                            if let Some(h) = hit {
+                                closest[l].offer(i, PrimitiveHit::Solid(j, h));
+                            }
+                        }
+                        return;
+                    };
+                    // Four rays' edge functions at once, where they share an axis permutation: most
+                    // tests end there.
+                    let may_hit = frame4
+                        .as_ref()
+                        .map_or(asked, |f| may_hit4(f, triangle, asked));
+                    for l in lanes_of(may_hit) {
+                        if let Some(h) =
+                            intersect(&frames[l].triangles, triangle, closest[l].bound())
+                        {
+                            closest[l].offer(i, PrimitiveHit::Triangle(i, h));
                         }
                     }
-                    return;
-                };
-                // Four rays' edge functions at once, where they share an axis permutation: most
-                // tests end there.
-                let may_hit = frame4
-                    .as_ref()
-                    .map_or(asked, |f| may_hit4(f, triangle, asked));
-                for l in lanes_of(may_hit) {
-                    if let Some(h) = intersect(&frames[l].triangles, triangle, closest[l].bound()) {
-                        closest[l].offer(i, PrimitiveHit::Triangle(i, h));
-                    }
-                }
-            });
+                });
         per_lane(|l| {
             let best = hits[l];
             self.closest_unbounded(&rays[l], t_max, best, spans, work)

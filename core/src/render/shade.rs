@@ -111,6 +111,8 @@ impl Media {
 #[derive(Clone, Copy, Debug)]
 struct Pending {
     ray: Ray,
+    /// The triangle the ray leaves, which it cannot meet again ([`Scene::closest_hits4`]).
+    leaving: Option<u32>,
     weight: f32,
     depth: u32,
     media: Media,
@@ -356,8 +358,10 @@ pub(crate) fn trace4(
         let pending = core::mem::take(&mut scratch.packet[l]);
         RayTree::start(samples[l].0, samples[l].1, pending)
     });
-    while let [Some(a), Some(b), Some(c), Some(d)] = per_lane(|l| trees[l].next_ray()) {
-        let hits = scene.closest_hits4(&[a, b, c, d], f32::INFINITY, &mut scratch.query);
+    while let [Some(a), Some(b), Some(c), Some(d)] = per_lane(|l| trees[l].pending.last()) {
+        let rays = [a.ray, b.ray, c.ray, d.ray];
+        let leaving = [a.leaving, b.leaving, c.leaving, d.leaving];
+        let hits = scene.closest_hits4(&rays, f32::INFINITY, leaving, &mut scratch.query);
         for (tree, hit) in trees.iter_mut().zip(hits) {
             tree.follow(scene, hit, scratch, counts);
         }
@@ -387,6 +391,7 @@ impl RayTree {
         pending.clear();
         pending.push(Pending {
             ray: primary,
+            leaving: None,
             weight: 1.0,
             depth: 0,
             media: Media::OUTSIDE,
@@ -528,6 +533,7 @@ fn push_branches(
         let origin = s.origins.towards(dir);
         pending.push(Pending {
             ray: Ray::new(origin, dir),
+            leaving: s.triangle,
             weight: p.weight * split.refract_share,
             depth: p.depth + 1,
             media,
@@ -543,6 +549,7 @@ fn push_branches(
         let origin = s.origins.towards(dir);
         pending.push(Pending {
             ray: Ray::new(origin, dir),
+            leaving: s.triangle,
             weight: p.weight * split.mirror_share,
             depth: p.depth + 1,
             media: p.media,

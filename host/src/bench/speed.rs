@@ -96,7 +96,7 @@ fn primary_hits(scene: &Scene, y: u32, w: u32, scratch: &mut QueryScratch) -> u6
     let mut x = 0;
     while x + LANES as u32 <= w {
         let rays = std::array::from_fn(|l| ray(x + l as u32));
-        let four = scene.closest_hits4(&rays, f32::INFINITY, scratch);
+        let four = scene.closest_hits4(&rays, f32::INFINITY, [None; LANES], scratch);
         hits += four.iter().filter(|h| h.is_some()).count() as u64;
         x += LANES as u32;
     }

@@ -8,7 +8,7 @@
 //! that misses the triangle its light remembers is mostly settled by one listed next to it.
 
 use glam::Vec3;
-use strahl_core::accel::octree::OctreeParams;
+use strahl_core::accel::octree::{OctreeParams, LANES};
 use strahl_core::geom::axis_planes::AxisPlanes;
 use strahl_core::geom::triangle::{hit_point, intersect, unit_normal, RayFrame};
 use strahl_core::math::ray::{offset_ray_origin, Ray};
@@ -251,4 +251,51 @@ fn shadow_rays_crossing_a_fan_are_settled_by_the_remembered_triangles_neighbours
     assert_eq!(blocked, 2000, "every ray crosses the face");
     assert!(blockers.len() > 20, "{} triangles blocked", blockers.len());
     assert!(walked <= 2, "{walked} queries walked the octree");
+}
+
+/// Four rays leaving one triangle, walked together with it named as the triangle each leaves
+/// (`Scene::closest_hits4`'s `leaving`, as the tracer names it for mirror and refracted rays):
+/// each finds the hit it finds alone and the hit the packet finds without the names, and the
+/// walk tests fewer primitives (the triangle left is not tested).
+#[test]
+fn packets_leaving_a_triangle_find_their_hits_without_testing_it() {
+    let mut rng = Rng::new(41);
+    let tris = triangles(&mut rng);
+    let mut desc = lit(Vec3::new(0.0, 0.0, 10.0));
+    add_triangles(&mut desc, &tris);
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    let mut scratch = QueryScratch::default();
+    let tests = |scratch: &mut QueryScratch| std::mem::take(&mut scratch.work).intersection_tests;
+    let (mut named, mut unnamed, mut packets, mut hits) = (0, 0, 0, 0);
+    for k in 0..20_000 {
+        let i = k % tris.len();
+        let tri = &tris[i];
+        let Some(n) = unit_normal(tri) else { continue };
+        let towards = rng.direction();
+        let rays: [Ray; LANES] = std::array::from_fn(|_| {
+            let (p, err) = point_on(tri, &mut rng);
+            let w = (towards + rng.direction() * 0.05).normalize();
+            Ray::new(offset_ray_origin(p, err, n, w), w)
+        });
+        let signs = |r: &Ray| r.dir.to_array().map(|d| d < 0.0);
+        packets += usize::from(rays.iter().all(|r| signs(r) == signs(&rays[0])));
+        tests(&mut scratch);
+        let leaving =
+            scene.closest_hits4(&rays, f32::INFINITY, [Some(i as u32); LANES], &mut scratch);
+        named += tests(&mut scratch);
+        let anonymous = scene.closest_hits4(&rays, f32::INFINITY, [None; LANES], &mut scratch);
+        unnamed += tests(&mut scratch);
+        for (l, ray) in rays.iter().enumerate() {
+            assert_eq!(leaving[l], anonymous[l], "packet {k}, ray {l}");
+            let alone = scene.closest_hit(ray, f32::INFINITY, &mut scratch);
+            assert_eq!(leaving[l], alone, "packet {k}, ray {l}");
+            hits += usize::from(alone.is_some());
+        }
+    }
+    assert!(packets > 15_000, "only {packets} packets walked together");
+    assert!(hits > 5_000, "only {hits} rays hit something");
+    assert!(
+        unnamed - named > 3 * packets as u64,
+        "{named} tests naming the triangle left, {unnamed} without ({packets} packets)"
+    );
 }

@@ -33,6 +33,7 @@ fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
         tree.closest_hits4(
             rays,
             f32::INFINITY,
+            [None; LANES],
             (&mut work, stack),
             |lanes, i, closest| {
                 for l in lanes_of(lanes) {

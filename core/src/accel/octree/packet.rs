@@ -135,12 +135,15 @@ impl Octree {
     /// The closest hits of four rays with `0 < t < t_max`, each what
     /// [`Octree::closest_hit_with`] returns for it. `test(lanes, index, closest)` tests primitive
     /// `index` against the rays in `lanes` (bit `l` for ray `l`) and offers each ray's hit with
-    /// `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it there. The
-    /// cells entered and the tests made are added to `work`; `stack` is the walk's.
+    /// `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it there.
+    /// `leaving[l]` is a primitive ray `l` cannot hit, which it is not tested against (the
+    /// triangle it leaves: its test could only find nothing, at a cost, as `t` rounds about 0).
+    /// The cells entered and the tests made are added to `work`; `stack` is the walk's.
     pub fn closest_hits4<H: RayHit>(
         &self,
         rays: &[Ray; LANES],
         t_max: f32,
+        leaving: [Option<u32>; LANES],
         (work, stack): (&mut QueryWork, &mut PacketStack),
         mut test: impl FnMut(u32, u32, &mut [Closest<H>; LANES]),
     ) -> [Option<(u32, H)>; LANES] {
@@ -154,13 +157,21 @@ impl Octree {
                 })
             });
         };
+        let mut tests = 0;
         for &i in &self.large {
-            test((1 << LANES) - 1, i, &mut closest);
+            let mut lanes = 0;
+            for (l, leaving) in leaving.iter().enumerate() {
+                lanes |= u32::from(*leaving != Some(i)) << l;
+            }
+            if lanes != 0 {
+                tests += u64::from(lanes.count_ones());
+                test(lanes, i, &mut closest);
+            }
         }
-        let mut tests = (LANES * self.large.len()) as u64;
         // A hit on a large primitive already bounds the ray's walk.
         let t_max = per_lane(|l| t_max.min(closest[l].cutoff()));
-        let mut mailboxes: [Mailbox; LANES] = per_lane(|_| Mailbox::new());
+        // Each ray's mailbox starts with the primitive it leaves, as if tested already.
+        let mut mailboxes: [Mailbox; LANES] = per_lane(|l| Mailbox::holding(leaving[l]));
         work.octree_cells += self.walk4(&packet, t_max, stack, |entered, indices| {
             for &i in indices {
                 let mut lanes = 0;

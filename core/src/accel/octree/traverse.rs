@@ -72,6 +72,15 @@ impl Mailbox {
         Mailbox([u32::MAX; MAILBOX_SLOTS])
     }
 
+    /// A mailbox that has seen `i` already, if given: a primitive the query need not test.
+    pub(super) fn holding(i: Option<u32>) -> Self {
+        let mut mailbox = Mailbox::new();
+        if let Some(i) = i {
+            mailbox.first_visit(i);
+        }
+        mailbox
+    }
+
     /// True the first time `i` is seen since its slot last held another primitive.
     #[inline(always)]
     pub(super) fn first_visit(&mut self, i: u32) -> bool {
