@@ -367,8 +367,9 @@ pub(crate) fn trace4(
         }
     }
     let colors = per_lane(|l| trees[l].finish(scene, scratch, counts));
-    for (buffer, tree) in scratch.packet.iter_mut().zip(trees) {
-        *buffer = tree.pending;
+    // The buffers taken back in place: moving the trees into an iterator copied all four.
+    for (buffer, tree) in scratch.packet.iter_mut().zip(&mut trees) {
+        *buffer = core::mem::take(&mut tree.pending);
     }
     counts.work += core::mem::take(&mut scratch.query.work);
     colors
