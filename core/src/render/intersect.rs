@@ -389,7 +389,8 @@ impl Scene {
     /// spheres are tested in groups, the rays go one at a time. `leaving[l]` is the triangle
     /// ray `l` leaves, if it leaves one (its origin moved off that triangle's plane by
     /// [`LeavingOrigins`](crate::math::ray::LeavingOrigins), towards its direction): the ray
-    /// cannot meet it again, as [`Scene::shadowed`] says, so it is not tested.
+    /// cannot meet it again, as [`Scene::shadowed`] says, so where the four rays walk together
+    /// it is not tested.
     pub fn closest_hits4(
         &self,
         rays: &[Ray; LANES],

@@ -6,6 +6,8 @@
 //! meet another triangle of the same axis-aligned plane (`AxisPlanes`: a floor's other half, the
 //! rest of a gear's fanned face), which `Scene::shadowed` leaves untested too. And a shadow ray
 //! that misses the triangle its light remembers is mostly settled by one listed next to it.
+//! Four rays leaving a triangle, walked together with it named as the one they leave (as the
+//! tracer walks mirror and refracted rays), find the hits they find alone without testing it.
 
 use glam::Vec3;
 use strahl_core::accel::octree::{OctreeParams, LANES};

@@ -136,8 +136,9 @@ impl Octree {
     /// [`Octree::closest_hit_with`] returns for it. `test(lanes, index, closest)` tests primitive
     /// `index` against the rays in `lanes` (bit `l` for ray `l`) and offers each ray's hit with
     /// `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it there.
-    /// `leaving[l]` is a primitive ray `l` cannot hit, which it is not tested against (the
-    /// triangle it leaves: its test could only find nothing, at a cost, as `t` rounds about 0).
+    /// `leaving[l]` is a primitive ray `l` cannot hit, which the four rays' walk does not test
+    /// it against (the triangle it leaves: its test could only find nothing, at a cost, as `t`
+    /// rounds about 0); rays that go one at a time still test it.
     /// The cells entered and the tests made are added to `work`; `stack` is the walk's.
     pub fn closest_hits4<H: RayHit>(
         &self,
