@@ -15,10 +15,12 @@
 //! - [`hit`] is what every solid query returns: where the ray first meets the object.
 //! - [`sphere_miss`] tells a sure miss of a sphere without a division, under an error bound
 //!   that makes it agree with [`shape`]'s test.
+//! - [`cylinder_miss`] does the same for a cylinder's side.
 //! - [`lone_sphere`] tests a sphere object that is only translated without reading its node.
 //! - [`extent`] says where an object can be hit (nowhere bounded, a box, or a sphere's surface),
 //!   which is what the octree files it by.
 
+pub mod cylinder_miss;
 pub mod extent;
 pub mod hit;
 pub mod lone_sphere;

@@ -6,6 +6,7 @@
 //! [`surface`] puts a hit back on the exact surface (pbrt-v4's re-projection) with the error bound
 //! of the point, and [`normal`] gives the outward normal of a face.
 
+use super::cylinder_miss::surely_misses_side;
 use super::sphere_miss::surely_misses;
 use super::Shape;
 use crate::math::aabb::Aabb;
@@ -400,6 +401,10 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
 /// crossings' error bounds: the caps' slab cut by the side's span.
 #[inline]
 fn cylinder_ends(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<(f32, f32, Face, Face)> {
+    if r0 == r1 && h.is_finite() && h != 0.0 && surely_misses_side(r0, o, d) {
+        // What `cone_side` finds too, without the divisions of the slab and the quadratic.
+        return None;
+    }
     let half = 0.5 * h;
     let (mut lo, mut hi, mut lo_face, mut hi_face) = cap_slab(o, d, half)?;
     let (side_lo, side_hi) = cone_side(r0, r1, h, o, d, (lo, hi))?;
@@ -469,7 +474,14 @@ fn cap_slab(o: Vec3, d: Vec3, half: f32) -> Option<(f32, f32, Face, Face)> {
 /// would lose the roots to cancellation (off by far more than a crossing's error bound). From
 /// `m`, every coefficient has the size of the shape (the remedy the sphere's discriminant uses
 /// too).
-fn cone_side(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3, slab: (f32, f32)) -> Option<(f32, f32)> {
+pub(super) fn cone_side(
+    r0: f32,
+    r1: f32,
+    h: f32,
+    o: Vec3,
+    d: Vec3,
+    slab: (f32, f32),
+) -> Option<(f32, f32)> {
     let (lo, hi) = slab;
     let half = 0.5 * h;
     let s = nearest_to_centre(o, d);
