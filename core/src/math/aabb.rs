@@ -2,7 +2,7 @@
 
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 
 /// An axis-aligned box; `min <= max` on every axis once anything was added (zero volume is fine).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -115,6 +115,26 @@ impl Aabb {
         let t1 = far.min_element().min(t_max);
         (t0 <= t1).then_some((t0, t1))
     }
+
+    /// The rays of four, their origins and reciprocal directions per axis lane by lane, that
+    /// [`Aabb::intersect`] surely finds missing the box within `[0, t_max]` (bit `l` for ray
+    /// `l`, whose bound is lane `l` of `t_max`). Each lane computes `intersect_lanes`'s slab
+    /// values by its operations; where the reciprocal direction is finite and none of those
+    /// values is NaN, minima and maxima are exact whatever their order, so the lane's interval
+    /// is `intersect`'s to the bit. Other lanes are never reported.
+    #[inline(always)]
+    pub fn missed_by4(&self, origin: &[Vec4; 3], inv_dir: &[Vec4; 3], t_max: Vec4) -> u32 {
+        let (mut t0, mut t1) = (Vec4::ZERO, t_max);
+        let mut exact = t_max.cmpeq(t_max);
+        for k in 0..3 {
+            let a = (Vec4::splat(self.min[k]) - origin[k]) * inv_dir[k];
+            let b = (Vec4::splat(self.max[k]) - origin[k]) * inv_dir[k];
+            exact &= inv_dir[k].is_finite_mask() & a.cmpeq(a) & b.cmpeq(b);
+            t0 = t0.max(a.min(b));
+            t1 = t1.min(a.max(b) * (1.0 + 2.0 * gamma(3)));
+        }
+        (t0.cmpgt(t1) & exact).bitmask()
+    }
 }
 
 #[cfg(test)]
@@ -199,5 +219,68 @@ mod tests {
         };
         let r = Ray::new(Vec3::new(0.5, 0.5, 0.0), Vec3::new(0.0, 0.0, 1.0));
         assert!(b.intersect(&r, inv(r.dir), f32::INFINITY).is_some());
+    }
+
+    /// Four rays at a time: every lane reported missed is one `intersect` misses, and every
+    /// miss of a ray with a finite reciprocal direction is reported. Corners, edges, bounds that
+    /// cut the box, directions along an axis, and infinite and NaN components included.
+    #[test]
+    fn four_lanes_report_the_misses_of_intersect() {
+        let mut rng = crate::scene::mesh::Rng::new(0x9e37_79b9);
+        let mut unit = move || rng.next_f32();
+        let special = [0.0, -0.0, f32::INFINITY, f32::NAN, 1e30, 1e-30];
+        let (mut reported, mut clear) = (0, 0);
+        for case in 0..40_000usize {
+            let mut v = || Vec3::new(unit(), unit(), unit()) * 8.0 - 4.0;
+            let (a, b) = (v(), v());
+            let bx = Aabb {
+                min: a.min(b),
+                max: a.max(b),
+            };
+            let rays: [(Ray, f32); 4] = core::array::from_fn(|l| {
+                let mut origin = v() * 2.0;
+                let target = match (case + l) % 3 {
+                    0 => bx.min,
+                    1 => Vec3::new(bx.min.x, bx.max.y, 0.5 * (bx.min.z + bx.max.z)),
+                    _ => v(),
+                };
+                let mut dir = target - origin;
+                if (case + l) % 5 == 0 {
+                    let s = special[(case / 5 + l) % special.len()];
+                    let axis = (case + l) % 3;
+                    if l % 2 == 0 {
+                        dir[axis] = s;
+                    } else {
+                        origin[axis] = s;
+                    }
+                }
+                let t_max = if (case + l) % 4 == 0 {
+                    v().x.abs() * 2.0
+                } else {
+                    f32::INFINITY
+                };
+                (Ray { origin, dir }, t_max)
+            });
+            let inv = rays.map(|(r, _)| Vec3::ONE / r.dir);
+            let lanes = |f: &dyn Fn(usize) -> Vec3| {
+                [0, 1, 2].map(|k| Vec4::from(core::array::from_fn::<f32, 4, _>(|l| f(l)[k])))
+            };
+            let t_max = Vec4::from(rays.map(|(_, t)| t));
+            let missed = bx.missed_by4(&lanes(&|l| rays[l].0.origin), &lanes(&|l| inv[l]), t_max);
+            for (l, (ray, t)) in rays.iter().enumerate() {
+                let one = bx.intersect(ray, inv[l], *t);
+                if missed >> l & 1 == 1 {
+                    assert_eq!(one, None, "case {case} lane {l}: {ray:?} {t}");
+                    reported += 1;
+                } else if one.is_none() && inv[l].is_finite() && ray.origin.is_finite() {
+                    panic!("case {case} lane {l}: a clear miss not reported: {ray:?} {t}");
+                }
+                clear += usize::from(one.is_none());
+            }
+        }
+        assert!(
+            reported > 20_000,
+            "only {reported} of {clear} misses reported"
+        );
     }
 }

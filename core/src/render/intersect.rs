@@ -413,31 +413,35 @@ impl Scene {
             let [a, b, c, d] = rays.each_ref().map(v);
             [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
         };
-        // For the spheres' four-ray test; scenes of triangles alone skip making them.
-        let lanes = self
-            .solids
-            .has_lone_spheres()
-            .then(|| (axis_lanes(&|r| r.origin), axis_lanes(&|r| r.dir)));
+        // For the spheres' and the reject boxes' four-ray tests; scenes of triangles alone skip
+        // making them.
+        let lanes = (!self.solids.is_empty()).then(|| {
+            let inv_dir = per_lane(|l| frames[l].inv_dir);
+            let [a, b, c, d] = inv_dir;
+            (
+                axis_lanes(&|r| r.origin),
+                axis_lanes(&|r| r.dir),
+                [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k])),
+            )
+        });
         let hits =
             self.octree
                 .closest_hits4(rays, t_max, leaving, (work, stack), |asked, i, closest| {
                     let Some(triangle) = self.triangle_points.get(i as usize) else {
-                        let mut asked = asked;
-                        if let (Some(sphere), Some((origins, dirs))) =
-                            (self.solids.lone_sphere(i - n), &lanes)
-                        {
-                            // The four rays' sure misses at once: most tests of a sphere end there.
-                            asked &= !sphere.surely_missed_by4(origins, dirs);
+                        let (mut asked, j) = (asked, i - n);
+                        if let Some((origins, dirs, inv_dirs)) = &lanes {
+                            // The four rays' sure misses at once: most tests end there.
+                            if let Some(sphere) = self.solids.lone_sphere(j) {
+                                asked &= !sphere.surely_missed_by4(origins, dirs);
+                            } else if let Some(b) = self.solids.reject_box(j) {
+                                let bounds = Vec4::from(per_lane(|l| closest[l].bound()));
+                                asked &= !b.missed_by4(origins, inv_dirs, bounds);
+                            }
                         }
                         for l in lanes_of(asked) {
-                            let (j, bound) = (i - n, closest[l].bound());
-                            let hit = self.solids.first_hit_in_box(
-                                j,
-                                &rays[l],
-                                frames[l].inv_dir,
-                                bound,
-                                spans,
-                            );
+                            let hit = self
+                                .solids
+                                .first_hit(j, &rays[l], closest[l].bound(), spans);
                             if let Some(h) = hit {
                                 closest[l].offer(i, PrimitiveHit::Solid(j, h));
                             }

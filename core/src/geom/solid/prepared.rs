@@ -261,6 +261,16 @@ impl Solids {
         }
     }
 
+    /// The box a ray must cross before object `object` is evaluated, if it has one (not for
+    /// lone spheres and unbounded objects): [`Solids::first_hit_in_box`] tests it first.
+    #[inline]
+    pub fn reject_box(&self, object: u32) -> Option<&Aabb> {
+        match self.shortcuts.get(object as usize) {
+            Some(Shortcut::Reject(b)) => Some(b),
+            _ => None,
+        }
+    }
+
     /// True if any object is a lone sphere.
     #[inline]
     pub fn has_lone_spheres(&self) -> bool {
