@@ -436,6 +436,9 @@ impl Scene {
                             } else if let Some(b) = self.solids.reject_box(j) {
                                 let bounds = Vec4::from(per_lane(|l| closest[l].bound()));
                                 asked &= !b.missed_by4(origins, inv_dirs, bounds);
+                                if asked != 0 {
+                                    asked &= !self.solids.cylinder_missed_by4(j, origins, dirs);
+                                }
                             }
                         }
                         for l in lanes_of(asked) {

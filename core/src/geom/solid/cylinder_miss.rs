@@ -11,7 +11,8 @@
 //! direction across the axis, the same for every point of the line. It answers only where
 //! `X = C² − r²·a` as computed is above a bound on both forms' rounding, so whenever it
 //! answers, `shape.rs` finds `b² − 4ac < 0` too and the cylinder test returns no crossing: the
-//! answer is the same, bit for bit, for every ray.
+//! answer is the same, bit for bit, for every ray. [`surely_misses_side4`] asks it of four rays
+//! at once, lane by lane, by the same operations: a packet's test of a cylinder.
 //!
 //! **The bound.** Write `S = |o|²` (all three axes), `A = dx² + dz²`, `u` for the unit
 //! roundoff and `γ(n) = nu/(1 − nu)`, and let `M = A·(S + r²)`. This holds for a cylinder
@@ -36,7 +37,7 @@
 //!   Infinities and NaN elsewhere fail the comparison, so the full test decides them.
 
 use crate::math::float::gamma;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// The smallest `a` and `|o|² + r²` the rounding argument covers (2⁻⁶⁰).
 const LEAST_SCALE: f32 = 1.0 / (1u64 << 60) as f32;
@@ -60,6 +61,26 @@ pub fn surely_misses_side(r: f32, o: Vec3, d: Vec3) -> bool {
         && scale >= LEAST_SCALE
         && m <= LARGEST_PRODUCT
         && d.y.is_finite()
+}
+
+/// [`surely_misses_side`] for four rays at once, one per lane (`o` and `d` per axis, in the
+/// cylinder's object space): the lanes (bit `l` for ray `l`) it says surely miss. Each lane's
+/// values are computed by the very operations `surely_misses_side` makes, in its order, so its
+/// answer is `surely_misses_side`'s.
+#[inline(always)]
+pub fn surely_misses_side4(r: f32, o: [Vec4; 3], d: [Vec4; 3]) -> u32 {
+    let a = d[0] * d[0] + d[2] * d[2];
+    let cross = o[0] * d[2] - o[2] * d[0];
+    let rr = Vec4::splat(r * r);
+    let x = cross * cross - rr * a;
+    let scale = o[0] * o[0] + o[1] * o[1] + o[2] * o[2] + rr;
+    let m = a * scale;
+    let sure = x.cmpgt(Vec4::splat(gamma(128)) * m)
+        & a.cmpge(Vec4::splat(LEAST_SCALE))
+        & scale.cmpge(Vec4::splat(LEAST_SCALE))
+        & m.cmple(Vec4::splat(LARGEST_PRODUCT))
+        & d[1].is_finite_mask();
+    sure.bitmask()
 }
 
 #[cfg(test)]
@@ -165,5 +186,45 @@ mod tests {
             !surely_misses_side(tiny, o * tiny, Vec3::Z),
             "below the covered scale"
         );
+    }
+
+    /// The four-lane form answers as the one-ray form in every lane, bit for bit: rays near the
+    /// rim and far from it, at every scale, and zero, infinite and NaN components.
+    #[test]
+    fn four_lanes_answer_as_one() {
+        let mut rng = Rng::new(37);
+        let special = [0.0, -0.0, f32::INFINITY, f32::NAN, 1e30, 1e-30];
+        let (mut sure, mut not) = (0, 0);
+        for case in 0..50_000usize {
+            let rays: [(f32, Vec3, Vec3); 4] = core::array::from_fn(|l| {
+                let k = (rng.next_f32() - 0.3) * 10f32.powi(-((case % 6) as i32));
+                let (r, mut o, mut d) = near_rim(&mut rng, k);
+                if (case + l) % 7 == 0 {
+                    let s = special[(rng.next_u64() % special.len() as u64) as usize];
+                    let axis = (rng.next_u64() % 3) as usize;
+                    if l % 2 == 0 {
+                        o[axis] = s;
+                    } else {
+                        d[axis] = s;
+                    }
+                }
+                (r, o, d)
+            });
+            // One radius for the four (the lanes share a cylinder): rescale each ray to it.
+            let r = rays[0].0;
+            let rays = rays.map(|(q, o, d)| (o * (r / q), d));
+            let lanes = |f: &dyn Fn(&(Vec3, Vec3)) -> Vec3| {
+                let v = rays.map(|ray| f(&ray));
+                [0, 1, 2].map(|a| Vec4::new(v[0][a], v[1][a], v[2][a], v[3][a]))
+            };
+            let got = surely_misses_side4(r, lanes(&|ray| ray.0), lanes(&|ray| ray.1));
+            for (l, &(o, d)) in rays.iter().enumerate() {
+                let one = surely_misses_side(r, o, d);
+                assert_eq!(got >> l & 1 == 1, one, "case {case} lane {l}: {o:?} {d:?}");
+                sure += usize::from(one);
+                not += usize::from(!one);
+            }
+        }
+        assert!(sure > 20_000 && not > 20_000, "{sure} sure, {not} not");
     }
 }

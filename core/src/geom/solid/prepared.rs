@@ -5,6 +5,7 @@
 //! into a [`SpanScratch`] (reused across queries so a render allocates only while it warms up),
 //! combines them bottom-up, and returns the first boundary in front of the origin.
 
+use super::cylinder_miss::surely_misses_side4;
 use super::extent::{reject_box, reject_margin, SolidExtent};
 pub use super::hit::SolidHit;
 use super::lone_sphere::LoneSphere;
@@ -17,7 +18,7 @@ use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
 use alloc::vec::Vec;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 
 /// A node of the prepared arena.
 #[derive(Clone, Copy, Debug)]
@@ -268,6 +269,34 @@ impl Solids {
         match self.shortcuts.get(object as usize) {
             Some(Shortcut::Reject(b)) => Some(b),
             _ => None,
+        }
+    }
+
+    /// The rays of four, their origins and directions per axis lane by lane, that surely miss
+    /// object `object` (bit `l` for ray `l`) where it is one cylinder: its test
+    /// ([`Solids::first_hit`]) asks [`surely_misses_side`](super::cylinder_miss) first, of the
+    /// same object-space rays ([`Placement::to_object4`]), and this asks it of the four at once.
+    /// No lane is reported for other objects.
+    #[inline]
+    pub fn cylinder_missed_by4(&self, object: u32, origin: &[Vec4; 3], dir: &[Vec4; 3]) -> u32 {
+        let Some(&root) = self.objects.get(object as usize) else {
+            return 0;
+        };
+        match &self.nodes[root as usize] {
+            PreparedNode::Leaf {
+                shape:
+                    Shape::Cylinder {
+                        bottom_radius,
+                        top_radius,
+                        height,
+                    },
+                placement,
+                ..
+            } if shape::is_cylinder(*bottom_radius, *top_radius, *height) => {
+                let (o, d) = placement.to_object4(origin, dir);
+                surely_misses_side4(*bottom_radius, o, d)
+            }
+            _ => 0,
         }
     }
 

@@ -401,7 +401,7 @@ fn cylinder(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
 /// crossings' error bounds: the caps' slab cut by the side's span.
 #[inline]
 fn cylinder_ends(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<(f32, f32, Face, Face)> {
-    if r0 == r1 && h.is_finite() && h != 0.0 && surely_misses_side(r0, o, d) {
+    if is_cylinder(r0, r1, h) && surely_misses_side(r0, o, d) {
         // What `cone_side` finds too, without the divisions of the slab and the quadratic.
         return None;
     }
@@ -417,6 +417,14 @@ fn cylinder_ends(r0: f32, r1: f32, h: f32, o: Vec3, d: Vec3) -> Option<(f32, f32
         hi_face = 0;
     }
     Some((lo, hi, lo_face, hi_face))
+}
+
+/// True if the cone with radii `r0`, `r1` and height `h` is a cylinder whose slope terms
+/// vanish in [`cone_side`] (equal radii, a finite height that is not zero): the shapes
+/// [`surely_misses_side`] answers for.
+#[inline(always)]
+pub fn is_cylinder(r0: f32, r1: f32, h: f32) -> bool {
+    r0 == r1 && h.is_finite() && h != 0.0
 }
 
 /// Of the ends `(lo, hi, lo_face, hi_face)` of a span, the first in front of the origin if it
