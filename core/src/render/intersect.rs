@@ -416,8 +416,7 @@ impl Scene {
         // For the spheres' and the reject boxes' four-ray tests; scenes of triangles alone skip
         // making them.
         let lanes = (!self.solids.is_empty()).then(|| {
-            let inv_dir = per_lane(|l| frames[l].inv_dir);
-            let [a, b, c, d] = inv_dir;
+            let [a, b, c, d] = frames.each_ref().map(|f| f.inv_dir);
             (
                 axis_lanes(&|r| r.origin),
                 axis_lanes(&|r| r.dir),

@@ -111,39 +111,21 @@ mod tests {
         (r, o, d)
     }
 
-    /// Wherever the cheap form says "miss", `shape.rs` finds no crossing of the side either,
-    /// over rays from just inside the rim to well outside it, at scales from 2⁻⁴⁰ to 2⁴⁰; and it
-    /// does say so for every ray from within 16 radii that passes the rim by more than 1 %, at
-    /// scales the rounding argument covers.
+    /// Wherever the cheap form says "miss", `shape.rs` finds no crossing of the side either, at
+    /// scales from 2⁻⁴⁰ to 2⁴⁰, and clear misses from close by are caught ([`miss_checks`]).
+    ///
+    /// [`miss_checks`]: super::super::miss_checks::sure_misses_are_misses
     #[test]
     fn a_sure_miss_is_a_miss_of_the_side_test() {
-        let mut rng = Rng::new(29);
-        let (mut sure, mut clear_misses, mut caught) = (0, 0, 0);
-        for case in 0..400_000 {
-            let k = match case % 4 {
-                0 => (rng.next_f32() - 0.5) * 1e-6,
-                1 => (rng.next_f32() - 0.5) * 1e-4,
-                2 => (rng.next_f32() - 0.5) * 1e-2,
-                _ => rng.next_f32() * 4.0,
-            };
-            let (r, o, d) = near_rim(&mut rng, k);
-            if surely_misses_side(r, o, d) {
-                sure += 1;
-                assert!(
-                    side_missed(r, o, d),
-                    "case {case}: r {r:e}, o {o:?}, d {d:?}"
-                );
-            }
-            let a = d.x * d.x + d.z * d.z;
-            let covered = r * r >= 1e-12 && a >= 1e-12 && a * (o.dot(o) + r * r) <= 1e24;
-            if k > 1e-2 && o.length() < 16.0 * r && covered {
-                clear_misses += 1;
-                caught += usize::from(surely_misses_side(r, o, d));
-            }
-        }
-        assert!(sure > 50_000, "only {sure} sure misses");
-        assert!(clear_misses > 10_000, "only {clear_misses} clear misses");
-        assert_eq!(caught, clear_misses, "clear misses from close by");
+        super::super::miss_checks::sure_misses_are_misses(
+            29,
+            near_rim,
+            (surely_misses_side, side_missed),
+            |r, o, d| {
+                let a = d.x * d.x + d.z * d.z;
+                r * r >= 1e-12 && a >= 1e-12 && a * (o.dot(o) + r * r) <= 1e24
+            },
+        );
     }
 
     /// Rays that hit the side, or start inside it, are never called misses; nor are degenerate
@@ -192,39 +174,11 @@ mod tests {
     /// rim and far from it, at every scale, and zero, infinite and NaN components.
     #[test]
     fn four_lanes_answer_as_one() {
-        let mut rng = Rng::new(37);
-        let special = [0.0, -0.0, f32::INFINITY, f32::NAN, 1e30, 1e-30];
-        let (mut sure, mut not) = (0, 0);
-        for case in 0..50_000usize {
-            let rays: [(f32, Vec3, Vec3); 4] = core::array::from_fn(|l| {
-                let k = (rng.next_f32() - 0.3) * 10f32.powi(-((case % 6) as i32));
-                let (r, mut o, mut d) = near_rim(&mut rng, k);
-                if (case + l) % 7 == 0 {
-                    let s = special[(rng.next_u64() % special.len() as u64) as usize];
-                    let axis = (rng.next_u64() % 3) as usize;
-                    if l % 2 == 0 {
-                        o[axis] = s;
-                    } else {
-                        d[axis] = s;
-                    }
-                }
-                (r, o, d)
-            });
-            // One radius for the four (the lanes share a cylinder): rescale each ray to it.
-            let r = rays[0].0;
-            let rays = rays.map(|(q, o, d)| (o * (r / q), d));
-            let lanes = |f: &dyn Fn(&(Vec3, Vec3)) -> Vec3| {
-                let v = rays.map(|ray| f(&ray));
-                [0, 1, 2].map(|a| Vec4::new(v[0][a], v[1][a], v[2][a], v[3][a]))
-            };
-            let got = surely_misses_side4(r, lanes(&|ray| ray.0), lanes(&|ray| ray.1));
-            for (l, &(o, d)) in rays.iter().enumerate() {
-                let one = surely_misses_side(r, o, d);
-                assert_eq!(got >> l & 1 == 1, one, "case {case} lane {l}: {o:?} {d:?}");
-                sure += usize::from(one);
-                not += usize::from(!one);
-            }
-        }
-        assert!(sure > 20_000 && not > 20_000, "{sure} sure, {not} not");
+        super::super::miss_checks::four_lanes_answer_as_one(
+            37,
+            near_rim,
+            surely_misses_side,
+            surely_misses_side4,
+        );
     }
 }

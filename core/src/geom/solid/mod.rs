@@ -15,7 +15,8 @@
 //! - [`hit`] is what every solid query returns: where the ray first meets the object.
 //! - [`sphere_miss`] tells a sure miss of a sphere without a division, under an error bound
 //!   that makes it agree with [`shape`]'s test.
-//! - [`cylinder_miss`] does the same for a cylinder's side.
+//! - [`cylinder_miss`] does the same for a cylinder's side. Both answer for four rays at once
+//!   too; `miss_checks` (tests only) holds the checks both must pass.
 //! - [`lone_sphere`] tests a sphere object that is only translated without reading its node.
 //! - [`extent`] says where an object can be hit (nowhere bounded, a box, or a sphere's surface),
 //!   which is what the octree files it by.
@@ -25,6 +26,8 @@ pub mod extent;
 pub mod hit;
 pub mod lone_sphere;
 pub mod mesh;
+#[cfg(test)]
+mod miss_checks;
 pub mod prepared;
 pub mod shape;
 pub mod spans;
