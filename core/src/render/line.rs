@@ -90,9 +90,13 @@ fn single_samples(
 }
 
 /// Sample `k` of pixel `(x, y)` on the scene's `m × m` pattern: its ray, and the seed of its
-/// occlusion pattern.
+/// occlusion pattern. With one sample and no occlusion nothing is drawn from the seed (the
+/// offset is the pixel's centre, and only occlusion reads the pattern), so none is made.
 fn sample(scene: &Scene, x: u32, y: u32, k: u32) -> (Ray, u32) {
     let m = scene.settings.samples.max(1);
+    if m == 1 && scene.settings.ambient_occlusion == 0 {
+        return (scene.camera.ray(x as f32 + 0.5, y as f32 + 0.5), 0);
+    }
     let seed = pixel_seed(x, y);
     let (dx, dy) = pixel_sample(seed, k, m);
     let ray = scene.camera.ray(x as f32 + dx, y as f32 + dy);
