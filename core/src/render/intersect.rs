@@ -440,6 +440,9 @@ impl Scene {
                                 }
                             }
                         }
+                        // `first_hit` gives `first_hit_in_box`'s answer without its box: a lane
+                        // left here passed the box above, or the box could not be asked four at
+                        // a time (a zero direction component, a NaN), or the object has none.
                         for l in lanes_of(asked) {
                             let hit = self
                                 .solids
