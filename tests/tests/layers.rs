@@ -176,8 +176,13 @@ fn graph(map: &LayerMap) -> BTreeMap<Vec<String>, BTreeSet<Vec<String>>> {
     let mut edges = BTreeMap::new();
     for (module, path) in &files {
         let text = std::fs::read_to_string(path).expect("source readable");
-        // Unit tests at the bottom of a file may use anything.
-        let text = text.split("#[cfg(test)]").next().unwrap_or_default();
+        // Unit tests at the bottom of a file may use anything, and so may a file of test
+        // support compiled for tests alone (`#![cfg(test)]`).
+        let text = if text.contains("#![cfg(test)]") {
+            ""
+        } else {
+            text.split("#[cfg(test)]").next().unwrap_or_default()
+        };
         let mut to = BTreeSet::new();
         for named in named_paths(&code_only(text), module) {
             if let Some(target) = owner(&named, &known) {

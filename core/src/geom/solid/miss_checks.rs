@@ -8,6 +8,8 @@
 //! four-lane form gives the one-ray answer in every lane, bit for bit, with zero, infinite and
 //! NaN components mixed in.
 
+#![cfg(test)]
+
 use crate::scene::mesh::Rng;
 use glam::{Vec3, Vec4};
 

@@ -26,7 +26,6 @@ pub mod extent;
 pub mod hit;
 pub mod lone_sphere;
 pub mod mesh;
-#[cfg(test)]
 mod miss_checks;
 pub mod prepared;
 pub mod shape;
