@@ -6,6 +6,8 @@
 //!   direction; shadow rays test those instead of walking the octree where it is short.
 //! - [`leaf_spheres`]: the lone spheres of the octree's large leaves, in groups ready for the
 //!   grouped tests.
+//! - [`sphere_interiors`]: per transparent lone sphere, the few primitives near it, so a ray
+//!   inside it finds its closest hit by testing those instead of walking the octree.
 //! - [`work`]: the counts of cells entered and primitives tested that the walks keep.
 //!
 //! The layer uses [`crate::math`] and [`crate::geom`].
@@ -13,4 +15,5 @@
 pub mod leaf_spheres;
 pub mod light_buffer;
 pub mod octree;
+pub mod sphere_interiors;
 pub mod work;

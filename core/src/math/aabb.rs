@@ -51,6 +51,18 @@ impl Aabb {
         }
     }
 
+    /// True if the two closed boxes share a point (touching counts).
+    #[inline]
+    pub fn meets(&self, other: &Aabb) -> bool {
+        self.min.cmple(other.max).all() && self.max.cmpge(other.min).all()
+    }
+
+    /// True if the closed box holds `p`.
+    #[inline]
+    pub fn holds(&self, p: Vec3) -> bool {
+        self.min.cmple(p).all() && p.cmple(self.max).all()
+    }
+
     /// The centre point.
     #[inline]
     pub fn center(&self) -> Vec3 {

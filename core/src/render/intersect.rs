@@ -383,6 +383,48 @@ impl Scene {
         self.closest_unbounded(ray, t_max, best, spans, work)
     }
 
+    /// [`Scene::closest_hit`] of `ray` with no bound, for a ray that starts inside the transparent
+    /// lone sphere `object` (refracted into it, or reflected inside it): the sphere and the few
+    /// primitives near it tested instead of a walk ([`SphereInteriors`], whose module doc proves
+    /// the answer the walk's). `None` where that cannot answer: the sphere has no entry, the ray
+    /// starts outside its box, or the best of those hits lies outside it; the caller walks.
+    ///
+    /// [`SphereInteriors`]: crate::accel::sphere_interiors::SphereInteriors
+    pub fn closest_hit_inside(
+        &self,
+        object: u32,
+        ray: &Ray,
+        scratch: &mut QueryScratch,
+    ) -> Option<Option<PrimitiveHit>> {
+        let inside = self.sphere_interiors.of(object)?;
+        if !inside.bounds.holds(ray.origin) {
+            return None;
+        }
+        let (spans, work) = (&mut scratch.spans, &mut scratch.work);
+        let mut closest = Closest::new(f32::INFINITY);
+        let n = self.triangle_points.len() as u32;
+        // `LoneSphere::first_hit` is a lone sphere's `test_primitive`.
+        for &(i, sphere) in core::iter::once(&inside.sphere).chain(inside.spheres) {
+            if let Some(h) = sphere.first_hit(ray, closest.bound()) {
+                closest.offer(i, PrimitiveHit::Solid(i - n, h));
+            }
+        }
+        if !inside.others.is_empty() {
+            let frame = QueryFrame::new(ray);
+            for &i in inside.others {
+                if let Some(h) = self.test_primitive(&frame, ray, i, closest.bound(), spans) {
+                    closest.offer(i, h);
+                }
+            }
+        }
+        work.intersection_tests += (1 + inside.spheres.len() + inside.others.len()) as u64;
+        let (_, best) = closest.best()?;
+        if !inside.ends.holds(ray.at(best.t())) {
+            return None;
+        }
+        Some(self.closest_unbounded(ray, f32::INFINITY, closest.best(), spans, work))
+    }
+
     /// The closest hits of four rays with `0 < t < t_max`, each what [`Scene::closest_hit`]
     /// returns for it. Neighbouring camera rays walk the octree together
     /// ([`Octree::closest_hits4`](crate::accel::octree::Octree::closest_hits4)); where lone

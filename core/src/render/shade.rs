@@ -116,6 +116,23 @@ struct Pending {
     weight: f32,
     depth: u32,
     media: Media,
+    /// The transparent lone sphere the ray starts inside, where its closest hit can be found
+    /// without a walk ([`Scene::closest_hit_inside`]).
+    inside: Option<u32>,
+}
+
+impl Pending {
+    /// The ray's closest hit: from the sphere it starts inside where that answers, else the
+    /// walk's.
+    fn closest_hit(&self, scene: &Scene, query: &mut QueryScratch) -> Option<PrimitiveHit> {
+        match self
+            .inside
+            .and_then(|j| scene.closest_hit_inside(j, &self.ray, query))
+        {
+            Some(hit) => hit,
+            None => scene.closest_hit(&self.ray, f32::INFINITY, query),
+        }
+    }
 }
 
 /// Buffers a tracer reuses from ray to ray (one per render thread).
@@ -154,6 +171,8 @@ struct Surface {
     triangle: Option<u32>,
     /// The origins of the rays that leave the surface here, each side's made once.
     origins: LeavingOrigins,
+    /// The transparent lone sphere this surface bounds, where rays inside it need no walk.
+    sphere: Option<u32>,
 }
 
 /// Marks medium keys of triangle meshes (keyed by shader) apart from solids (keyed by object).
@@ -188,6 +207,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
                 medium: MESH_MEDIUM | shader,
                 triangle: Some(t as u32),
                 origins: LeavingOrigins::new(point, point_error, geometric),
+                sphere: None,
             }
         }
         PrimitiveHit::Solid(object, h) => {
@@ -203,6 +223,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
                 medium: *object,
                 triangle: None,
                 origins: LeavingOrigins::new(s.point, s.point_error, geometric),
+                sphere: scene.sphere_interiors.holds(*object).then_some(*object),
             }
         }
     }
@@ -361,7 +382,13 @@ pub(crate) fn trace4(
     while let [Some(a), Some(b), Some(c), Some(d)] = per_lane(|l| trees[l].pending.last()) {
         let rays = [a.ray, b.ray, c.ray, d.ray];
         let leaving = [a.leaving, b.leaving, c.leaving, d.leaving];
-        let hits = scene.closest_hits4(&rays, f32::INFINITY, leaving, &mut scratch.query);
+        let query = &mut scratch.query;
+        let hits = if [a.inside, b.inside, c.inside, d.inside] == [None; LANES] {
+            scene.closest_hits4(&rays, f32::INFINITY, leaving, query)
+        } else {
+            // Rays inside glass spheres mostly need no walk: each goes alone.
+            per_lane(|l| trees[l].pending.last()?.closest_hit(scene, query))
+        };
         for (tree, hit) in trees.iter_mut().zip(hits) {
             tree.follow(scene, hit, scratch, counts);
         }
@@ -396,6 +423,7 @@ impl RayTree {
             weight: 1.0,
             depth: 0,
             media: Media::OUTSIDE,
+            inside: None,
         });
         RayTree {
             color: Vec3::ZERO,
@@ -405,11 +433,6 @@ impl RayTree {
         }
     }
 
-    /// The ray to follow next, if any.
-    fn next_ray(&self) -> Option<Ray> {
-        self.pending.last().map(|p| p.ray)
-    }
-
     /// Follows every ray left, finding each one's closest hit alone; returns the colour.
     fn finish(
         &mut self,
@@ -417,8 +440,8 @@ impl RayTree {
         scratch: &mut TraceScratch,
         counts: &mut RayCounts,
     ) -> Vec3 {
-        while let Some(ray) = self.next_ray() {
-            let hit = scene.closest_hit(&ray, f32::INFINITY, &mut scratch.query);
+        while let Some(p) = self.pending.last() {
+            let hit = p.closest_hit(scene, &mut scratch.query);
             self.follow(scene, hit, scratch, counts);
         }
         self.color
@@ -538,6 +561,8 @@ fn push_branches(
             weight: p.weight * split.refract_share,
             depth: p.depth + 1,
             media,
+            // Refracted in through the surface: inside the sphere.
+            inside: s.sphere.filter(|_| s.entering),
         });
         counts.refraction += 1;
     }
@@ -554,6 +579,8 @@ fn push_branches(
             weight: p.weight * split.mirror_share,
             depth: p.depth + 1,
             media: p.media,
+            // Reflected back from inside: still inside.
+            inside: s.sphere.filter(|_| !s.entering),
         });
         counts.reflection += 1;
     }

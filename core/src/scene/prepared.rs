@@ -11,6 +11,7 @@ use super::settings::RenderSettings;
 use crate::accel::leaf_spheres::LeafSpheres;
 use crate::accel::light_buffer::LightBuffer;
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
+use crate::accel::sphere_interiors::SphereInteriors;
 use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::solid::prepared::Solids;
@@ -71,6 +72,9 @@ pub struct Scene {
     /// fewer than [`LIGHT_BUFFER_MIN`] primitives, where the memory given does not allow it
     /// ([`Scene::build_within`]), or where the buffer would not pay.
     pub light_buffers: Vec<Option<LightBuffer>>,
+    /// The transparent lone spheres whose inside rays test a few primitives instead of walking
+    /// the octree ([`Scene::closest_hit_inside`]).
+    pub sphere_interiors: SphereInteriors,
 }
 
 /// Scenes with fewer primitives than this walk the octree for every shadow ray: the walk is
@@ -139,8 +143,24 @@ impl Scene {
         } else {
             LeafSpheres::default()
         };
+        // Rays start inside a lone sphere only where they can refract into it.
+        let transparent = |j: u32| {
+            solids.lone_sphere(j).is_some()
+                && solids
+                    .object_shader(j)
+                    .and_then(|s| desc.shaders.get(s as usize))
+                    .is_some_and(|s| s.transparency > 0.0)
+        };
+        let spheres = (0..solids.len() as u32)
+            .filter(|&j| transparent(j))
+            .filter_map(|j| Some((j, solids.bounds()[j as usize]?)));
+        let n = triangle_points.len() as u32;
+        let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
+        let sphere_interiors =
+            SphereInteriors::build(&octree, &triangle_points, &extents, spheres, sphere_of);
         Ok(Scene {
             light_buffers,
+            sphere_interiors,
             settings: desc.settings,
             shaders: desc.shaders.clone(),
             lights: desc.lights.clone(),

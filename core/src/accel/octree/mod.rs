@@ -24,6 +24,8 @@
 //!   ready, [`GroupTests::test_leaf`]) or [`GROUP`] primitives at a time.
 //! - [`closest_hits4`](Octree::closest_hits4) (in `packet.rs`) walks four neighbouring camera
 //!   rays together, one per vector lane, to the one-ray walk's answers.
+//! - [`filed_in`](Octree::filed_in) (in `region.rs`) lists the primitives filed near a box, for
+//!   structures beside the tree that rely on its filing.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
 //!
 //! The closest hit is the smallest `t`, ties going to the smallest triangle index; the octree
@@ -39,6 +41,7 @@ mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod packet;
+mod region;
 pub use packet::{lanes_of, per_lane, PacketStack, LANES};
 mod traverse;
 pub use crate::geom::hit::GROUP;

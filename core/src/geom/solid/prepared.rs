@@ -374,6 +374,15 @@ impl Solids {
         self.objects.is_empty()
     }
 
+    /// The shader of object `object` where the object is one leaf (a lone shape or mesh).
+    pub fn object_shader(&self, object: u32) -> Option<u32> {
+        let &root = self.objects.get(object as usize)?;
+        match self.nodes[root as usize] {
+            PreparedNode::Leaf { shader, .. } | PreparedNode::Mesh { shader, .. } => Some(shader),
+            PreparedNode::Csg { .. } => None,
+        }
+    }
+
     /// The shader of leaf `leaf`.
     pub fn leaf_shader(&self, leaf: u32) -> u32 {
         match self.nodes[leaf as usize] {

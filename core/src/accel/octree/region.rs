@@ -1,0 +1,104 @@
+//! Which primitives the tree files near a region: for structures built beside the octree that
+//! must know every primitive a ray could meet inside a box (`accel::sphere_interiors`).
+
+use super::{child_box, Octree, MAX_DEPTH_LIMIT};
+use crate::math::aabb::Aabb;
+use crate::math::float::gamma;
+use alloc::vec::Vec;
+
+impl Octree {
+    /// The primitives filed in a leaf whose cell meets `region` (closed boxes: touching counts),
+    /// and the large ones kept out of the tree, sorted, each once. A primitive is filed in every
+    /// cell that holds a point of it (see `build.rs`), so every primitive with a point in
+    /// `region` and in the root cell is among them.
+    pub fn filed_in(&self, region: &Aabb) -> Vec<u32> {
+        let mut found = self.large.clone();
+        if self.nodes.is_empty() || !self.root.meets(region) {
+            found.sort_unstable();
+            return found;
+        }
+        // Each level pushes at most eight cells and pops one.
+        let mut stack = Vec::with_capacity(8 * MAX_DEPTH_LIMIT as usize + 1);
+        stack.push((0u32, self.root));
+        while let Some((index, cell)) = stack.pop() {
+            let node = self.nodes[index as usize];
+            if node.is_leaf() {
+                let start = node.first as usize;
+                found.extend_from_slice(&self.indices[start..start + node.count as usize]);
+                continue;
+            }
+            let mid = cell.center();
+            for c in 0..8 {
+                let child = child_box(&cell, mid, c);
+                if node.child_occupied(c) && child.meets(region) {
+                    stack.push((node.first + c as u32, child));
+                }
+            }
+        }
+        found.sort_unstable();
+        found.dedup();
+        found
+    }
+
+    /// How far the build grows every cell before it files a primitive in it, in world units:
+    /// the filing tests' rounding at the root's magnitude (`build.rs`). A primitive's test
+    /// reports hits where it lies, to within this: the walk visits only cells that hold a
+    /// primitive, and so does every structure that relies on the tree's filing.
+    pub fn margin(&self) -> f32 {
+        let root = self.root;
+        root.min.abs().max(root.max.abs()).max_element() * gamma(super::overlap::MARGIN_GAMMA)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::OctreeParams;
+    use super::*;
+    use glam::Vec3;
+
+    /// A row of small triangles along x, one per unit.
+    fn row(n: usize) -> Vec<[Vec3; 3]> {
+        (0..n)
+            .map(|i| {
+                let x = i as f32;
+                [
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + 0.5, 0.0, 0.0),
+                    Vec3::new(x, 0.5, 0.5),
+                ]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn finds_every_primitive_in_the_region_and_few_others() {
+        let triangles = row(64);
+        let tree = Octree::build(&triangles, &OctreeParams::default());
+        assert!(tree.stats().depth >= 3, "the test needs a split tree");
+        for lo in [0usize, 10, 31, 63] {
+            let region = Aabb {
+                min: Vec3::new(lo as f32 + 0.1, -1.0, -1.0),
+                max: Vec3::new(lo as f32 + 0.2, 1.0, 1.0),
+            };
+            let found = tree.filed_in(&region);
+            assert!(found.contains(&(lo as u32)), "{lo}: {found:?}");
+            // The leaves around one triangle hold a few of its neighbours, not the row.
+            assert!(found.len() < 16, "{lo}: {found:?}");
+            assert!(found.windows(2).all(|w| w[0] < w[1]), "sorted, each once");
+        }
+        let outside = Aabb {
+            min: Vec3::splat(100.0),
+            max: Vec3::splat(101.0),
+        };
+        assert!(tree.filed_in(&outside).is_empty());
+    }
+
+    #[test]
+    fn margin_is_the_builds() {
+        let triangles = row(8);
+        let tree = Octree::build(&triangles, &OctreeParams::default());
+        let m = tree.margin();
+        // The root of this row reaches x = 7.5.
+        assert!(m > 7.5 * gamma(1) && m < 8.0 * gamma(64), "{m}");
+    }
+}
