@@ -491,12 +491,12 @@ impl Solids {
         let root = self.objects[object as usize];
         if let PreparedNode::Leaf {
             shape, placement, ..
-        } = self.nodes[root as usize]
+        } = &self.nodes[root as usize]
         {
             // A shape alone: its first crossing, without collecting spans.
             let o = placement.point_to_object(ray.origin);
             let d = placement.vector_to_object(ray.dir);
-            let (t, t_error, face) = shape::first_crossing(&shape, o, d, t_max)?;
+            let (t, t_error, face) = shape::first_crossing(shape, o, d, t_max)?;
             return Some(SolidHit {
                 t,
                 t_error,
@@ -547,7 +547,9 @@ impl Solids {
     /// The surface at `hit` of `ray`: point (re-projected onto the leaf shape), error bound,
     /// outward normal and shader.
     pub fn surface(&self, ray: &Ray, hit: &SolidHit) -> SolidSurface {
-        let (placement, shader, p, err, object_normal) = match self.nodes[hit.leaf as usize] {
+        // By reference: a placement is 156 bytes, and copying it out of the node was an eighth
+        // of this function's instructions on SPD's mount.
+        let (placement, shader, p, err, object_normal) = match &self.nodes[hit.leaf as usize] {
             PreparedNode::Leaf {
                 shape,
                 placement,
@@ -555,13 +557,13 @@ impl Solids {
             } => {
                 let o = placement.point_to_object(ray.origin);
                 let d = placement.vector_to_object(ray.dir);
-                let (p, err) = shape::surface(&shape, o, d, hit.t, hit.t_error, hit.face);
+                let (p, err) = shape::surface(shape, o, d, hit.t, hit.t_error, hit.face);
                 (
                     placement,
-                    shader,
+                    *shader,
                     p,
                     err,
-                    shape::normal(&shape, p, hit.face),
+                    shape::normal(shape, p, hit.face),
                 )
             }
             PreparedNode::Mesh {
@@ -570,14 +572,14 @@ impl Solids {
                 shader,
                 ..
             } => {
-                let tri = &self.mesh_triangles[(first + hit.face) as usize];
+                let tri = &self.mesh_triangles[(*first + hit.face) as usize];
                 let o = placement.point_to_object(ray.origin);
                 let d = placement.vector_to_object(ray.dir);
                 let p = o + d * hit.t;
                 // The point's error: the crossing's t error along d, plus the sum's rounding.
                 let err = d.abs() * hit.t_error + p.abs() * crate::math::float::gamma(4);
                 let n = crate::geom::triangle::unit_normal(tri).unwrap_or(Vec3::Z);
-                (placement, shader, p, err, n)
+                (placement, *shader, p, err, n)
             }
             PreparedNode::Csg { .. } => {
                 // Hits always name leaves; a CSG node here would be a bug upstream.
