@@ -40,7 +40,8 @@ pub const MAX_NEIGHBOURS: usize = 8;
 /// them without looking them up.
 #[derive(Clone, Debug, Default)]
 pub struct SphereInteriors {
-    /// Per solid object: one more than its index in `entries`, 0 for none.
+    /// Per solid object: one more than its index in `entries`, 0 for none (empty where no
+    /// sphere has an entry).
     slots: Vec<u32>,
     entries: Vec<Entry>,
     /// The neighbours that are lone spheres, with their primitive indices, entry by entry.
@@ -89,10 +90,7 @@ impl SphereInteriors {
         spheres: impl Iterator<Item = (u32, Aabb)>,
         sphere_of: impl Fn(u32) -> Option<LoneSphere>,
     ) -> SphereInteriors {
-        let mut interiors = SphereInteriors {
-            slots: alloc::vec![0; extents.len()],
-            ..SphereInteriors::default()
-        };
+        let mut interiors = SphereInteriors::default();
         let n = triangles.len() as u32;
         let hit_box = |i: u32| match i.checked_sub(n) {
             None => Some(Aabb::of_triangle(&triangles[i as usize])),
@@ -128,6 +126,8 @@ impl SphereInteriors {
                 spheres: (spheres as u32, interiors.spheres.len() as u32),
                 others: (others as u32, interiors.others.len() as u32),
             });
+            // Slots only once a sphere has an entry: most scenes have no glass spheres.
+            interiors.slots.resize(extents.len(), 0);
             if let Some(slot) = interiors.slots.get_mut(object as usize) {
                 *slot = interiors.entries.len() as u32;
             }
