@@ -8,8 +8,9 @@
 //! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
 //! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule,
 //!    the axis-aligned planes that triangles share.
-//! 3. [`accel`]: the arena octree over triangles and bounded solids, and per light the
-//!    primitives by direction that shadow rays test (light buffers).
+//! 3. [`accel`]: the arena octree over triangles and bounded solids, per light the primitives
+//!    by direction that shadow rays test (light buffers), and per glass sphere the few
+//!    primitives near it that rays inside it test instead of walking.
 //! 4. [`scene`]: the scene model loaders fill in, render settings and their limits, cameras,
 //!    which effects can change a pixel, validation, the prepared [`scene::Scene`], and
 //!    procedural meshes for generated scenes and tests.
