@@ -28,6 +28,7 @@ use crate::geom::solid::extent::SolidExtent;
 use crate::geom::solid::lone_sphere::LoneSphere;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use crate::math::ray::Ray;
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -44,8 +45,9 @@ pub struct SphereInteriors {
     /// sphere has an entry).
     slots: Vec<u32>,
     entries: Vec<Entry>,
-    /// The neighbours that are lone spheres, with their primitive indices, entry by entry.
-    spheres: Vec<(u32, LoneSphere)>,
+    /// The neighbours that are lone spheres, with their primitive indices and clearances,
+    /// entry by entry.
+    spheres: Vec<(u32, LoneSphere, Clearance)>,
     /// The other neighbours' primitive indices, entry by entry.
     others: Vec<u32>,
 }
@@ -68,8 +70,8 @@ pub struct Interior<'a> {
     pub ends: Aabb,
     /// The sphere, with its primitive index.
     pub sphere: (u32, LoneSphere),
-    /// The neighbours that are lone spheres, with their primitive indices.
-    pub spheres: &'a [(u32, LoneSphere)],
+    /// The neighbours that are lone spheres, with their primitive indices and clearances.
+    pub spheres: &'a [(u32, LoneSphere, Clearance)],
     /// The other neighbours' primitive indices.
     pub others: &'a [u32],
 }
@@ -114,8 +116,11 @@ impl SphereInteriors {
             }
             let (spheres, others) = (interiors.spheres.len(), interiors.others.len());
             for i in near {
-                match sphere_of(i) {
-                    Some(s) => interiors.spheres.push((i, s)),
+                let clearance = extents
+                    .get((i - n) as usize)
+                    .and_then(|e| Clearance::of(e, octree.margin()));
+                match sphere_of(i).zip(clearance) {
+                    Some((s, c)) => interiors.spheres.push((i, s, c)),
                     None => interiors.others.push(i),
                 }
             }
@@ -154,5 +159,116 @@ impl SphereInteriors {
     #[inline]
     pub fn holds(&self, object: u32) -> bool {
         self.slots.get(object as usize).is_some_and(|&s| s != 0)
+    }
+}
+
+/// How far from a neighbouring lone sphere's centre a ray's points must stay for its test to
+/// report no hit among them: its radius, the band around its surface that the octree files it
+/// by (`SolidExtent::Sphere`'s margin), and the build's margin `μ` (the premise in the module
+/// doc: a test reports hits only within `μ` of where its primitive is filed from).
+#[derive(Clone, Copy, Debug)]
+pub struct Clearance {
+    centre: Vec3,
+    reach: f32,
+}
+
+impl Clearance {
+    /// The clearance of a lone sphere filed as `extent`, `None` for another kind of extent.
+    fn of(extent: &SolidExtent, mu: f32) -> Option<Clearance> {
+        match *extent {
+            SolidExtent::Sphere {
+                center,
+                radius,
+                margin,
+                ..
+            } => Some(Clearance {
+                centre: center,
+                reach: radius + margin + mu,
+            }),
+            _ => None,
+        }
+    }
+
+    /// True if the points of `ray` with `0 ≤ t ≤ t_end` all lie farther than the reach from the
+    /// centre, so the sphere's test reports no hit with `t ≤ t_end`. In `f64`, from the `f32`
+    /// inputs (exact in `f64`): the nearest point's parameter, clamped to the segment, and its
+    /// squared distance. Their rounding, a few units of 2⁻⁵³ of the squared distances, is far
+    /// below what the margins add to the squared reach (twice the radius times the surface
+    /// band, 10⁻⁴ of the sphere's size and distance from the origin).
+    #[inline]
+    pub fn clears(&self, ray: &Ray, t_end: f32) -> bool {
+        let f = |v: Vec3| [f64::from(v.x), f64::from(v.y), f64::from(v.z)];
+        let (o, d, c) = (f(ray.origin), f(ray.dir), f(self.centre));
+        let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+        let w = [c[0] - o[0], c[1] - o[1], c[2] - o[2]];
+        // NaN for a zero or non-finite direction, and then nothing below is true.
+        let s = dot(w, d) / dot(d, d);
+        let end = f64::from(t_end);
+        let s = if s < 0.0 {
+            0.0
+        } else if s > end {
+            end
+        } else {
+            s
+        };
+        let gap = [w[0] - d[0] * s, w[1] - d[1] * s, w[2] - d[2] * s];
+        let reach = f64::from(self.reach);
+        dot(gap, gap) > reach * reach
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::solid::Shape;
+    use crate::math::transform::{Placement, Transform};
+    use crate::scene::mesh::Rng;
+
+    /// A ray that stays clear of a sphere's reach up to `t_end` gets no hit from its test up to
+    /// there; one through the centre is never clear; and the clearance is not empty talk: many
+    /// segments that pass near the sphere are cleared.
+    #[test]
+    fn a_cleared_segment_gets_no_hit() {
+        let mut rng = Rng::new(5);
+        let mut cleared = 0;
+        for k in 0..20_000 {
+            let centre = Vec3::new(rng.range(-50.0, 50.0), rng.range(-5.0, 5.0), 3.0);
+            let radius = rng.range(0.01, 2.0);
+            let placement = Placement::new(&Transform::translate(centre));
+            let Some(sphere) = LoneSphere::of(&Shape::Sphere { radius }, &placement, 0) else {
+                panic!("a translated sphere is a lone sphere");
+            };
+            let extent = SolidExtent::Sphere {
+                bounds: Aabb {
+                    min: centre - Vec3::splat(radius),
+                    max: centre + Vec3::splat(radius),
+                },
+                center: centre,
+                radius,
+                margin: 1e-4 * (2.0 * radius + centre.abs().max_element()),
+            };
+            let Some(clearance) = Clearance::of(&extent, 1e-6) else {
+                panic!("a sphere's extent has a clearance");
+            };
+            // Rays aimed near the sphere, from outside and inside it.
+            let target = centre + rng.direction() * radius * rng.range(0.5, 1.5);
+            let origin = centre + rng.direction() * radius * rng.range(0.0, 4.0);
+            let ray = Ray::new(origin, (target - origin) * rng.range(0.1, 3.0));
+            let t_end = if k % 3 == 0 {
+                f32::INFINITY
+            } else {
+                rng.range(0.0, 2.0)
+            };
+            if clearance.clears(&ray, t_end) {
+                cleared += 1;
+                assert!(
+                    sphere.first_hit(&ray, t_end).is_none(),
+                    "{ray:?} to {t_end}"
+                );
+            }
+            let through = Ray::new(origin, centre - origin);
+            assert!(!clearance.clears(&through, 1.0) || origin == centre);
+        }
+        assert!(cleared > 2_000, "{cleared}");
     }
 }

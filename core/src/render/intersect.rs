@@ -403,8 +403,17 @@ impl Scene {
         let (spans, work) = (&mut scratch.spans, &mut scratch.work);
         let mut closest = Closest::new(f32::INFINITY);
         let n = self.triangle_points.len() as u32;
-        // `LoneSphere::first_hit` is a lone sphere's `test_primitive`.
-        for &(i, sphere) in core::iter::once(&inside.sphere).chain(inside.spheres) {
+        // `LoneSphere::first_hit` is a lone sphere's `test_primitive`. The sphere first: its
+        // hit bounds the others, and a neighbour the ray stays clear of up to that bound
+        // reports nothing that could win.
+        let (i, sphere) = inside.sphere;
+        if let Some(h) = sphere.first_hit(ray, f32::INFINITY) {
+            closest.offer(i, PrimitiveHit::Solid(i - n, h));
+        }
+        for &(i, sphere, clearance) in inside.spheres {
+            if clearance.clears(ray, closest.bound()) {
+                continue;
+            }
             if let Some(h) = sphere.first_hit(ray, closest.bound()) {
                 closest.offer(i, PrimitiveHit::Solid(i - n, h));
             }
