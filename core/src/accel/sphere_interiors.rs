@@ -20,6 +20,12 @@
 //! reject box) meets `R`. Those are the neighbours, so it was tested. The walk's known
 //! exception (a grazing hit judged far outside its face) is this query's too.
 //!
+//! The query tests the sphere first; a neighbouring lone sphere it then tests only where the
+//! ray's segment up to the hit so far comes within the neighbour's [`Clearance`] (radius,
+//! filing band and `μ`): by the same premise, a sphere that could report a winning hit has a
+//! point of that segment there. Touching spheres (SPD's mount stacks four in a pyramid) are
+//! mostly left clear.
+//!
 //! Spheres with more than [`MAX_NEIGHBOURS`] neighbours (one sunk into a mesh, or holding
 //! others) get no entry, and their rays walk.
 
