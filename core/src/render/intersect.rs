@@ -410,10 +410,12 @@ impl Scene {
         if let Some(h) = sphere.first_hit(ray, f32::INFINITY) {
             closest.offer(i, PrimitiveHit::Solid(i - n, h));
         }
+        let mut tests = 1 + inside.others.len() as u64;
         for &(i, sphere, clearance) in inside.spheres {
             if clearance.clears(ray, closest.bound()) {
                 continue;
             }
+            tests += 1;
             if let Some(h) = sphere.first_hit(ray, closest.bound()) {
                 closest.offer(i, PrimitiveHit::Solid(i - n, h));
             }
@@ -426,7 +428,7 @@ impl Scene {
                 }
             }
         }
-        work.intersection_tests += (1 + inside.spheres.len() + inside.others.len()) as u64;
+        work.intersection_tests += tests;
         let (_, best) = closest.best()?;
         if !inside.ends.holds(ray.at(best.t())) {
             return None;

@@ -27,7 +27,9 @@
 //! A sample's stack and colour so far are a `RayTree`, which takes each ray's closest hit from
 //! its caller: [`trace4`] follows four samples' trees side by side and lets their primary rays,
 //! then their next rays (mirror and refracted rays), find their hits together while all four
-//! have one. Each tree's rays, hits and sums are the ones it has traced alone.
+//! have one. Each tree's rays, hits and sums are the ones it has traced alone. A ray refracted
+//! into a glass sphere, or reflected inside one, is marked, and finds its hit from the sphere
+//! and its few neighbours where that answers ([`Scene::closest_hit_inside`]).
 
 use crate::accel::octree::{per_lane, LANES};
 use crate::geom::triangle::{hit_point, unit_normal};
