@@ -122,8 +122,9 @@ impl SphereInteriors {
             }
             let (spheres, others) = (interiors.spheres.len(), interiors.others.len());
             for i in near {
-                let clearance = extents
-                    .get((i - n) as usize)
+                let clearance = i
+                    .checked_sub(n)
+                    .and_then(|j| extents.get(j as usize))
                     .and_then(|e| Clearance::of(e, octree.margin()));
                 match sphere_of(i).zip(clearance) {
                     Some((s, c)) => interiors.spheres.push((i, s, c)),
