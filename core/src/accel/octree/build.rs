@@ -21,12 +21,11 @@
 //! order depends only on the scene, so every machine builds the same tree.
 
 use super::filing::{bits, ChildCells, Filing};
-use super::overlap::MARGIN_GAMMA;
+use super::overlap::cell_margin;
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
-use crate::math::float::gamma;
 use alloc::collections::BinaryHeap;
 use alloc::rc::Rc;
 use alloc::vec::Vec;
@@ -181,13 +180,12 @@ impl Octree {
         let budget = (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET);
         let (filed, large, tree_bounds) = set_apart_large(filed, &world, bounds);
         let root = root_cell(tree_bounds);
-        let magnitude = root.min.abs().max(root.max.abs()).max_element();
         let mut b = Builder {
             filing: Filing {
                 triangles,
                 reach,
                 solids,
-                margin: magnitude * gamma(MARGIN_GAMMA),
+                margin: cell_margin(&root),
             },
             params,
             nodes: Vec::with_capacity(most_nodes(budget)),

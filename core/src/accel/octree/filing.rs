@@ -186,7 +186,7 @@ impl Filing<'_> {
     /// box.
     fn solid_touches(&self, j: usize, lo: Vec3, hi: Vec3) -> bool {
         let reach = &self.reach[j];
-        let in_reach = || reach.min.cmple(hi).all() && reach.max.cmpge(lo).all();
+        let in_reach = || reach.meets(&Aabb { min: lo, max: hi });
         match self.solids.get(j) {
             Some(&SolidExtent::Sphere {
                 center,

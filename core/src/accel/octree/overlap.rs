@@ -2,6 +2,8 @@
 //! theorem (Akenine-Möller 2001), and a sphere's surface against a box (Arvo 1990: the nearest
 //! and the farthest point of the box from the centre).
 
+use crate::math::aabb::Aabb;
+use crate::math::float::gamma;
 use glam::{Vec3, Vec3A, Vec3Swizzles};
 
 /// True if the surface of the sphere `center`, `radius` comes within `margin` of the box
@@ -102,6 +104,14 @@ struct EdgeAxes {
 /// The margin's factor in [`gamma`](crate::math::float::gamma)s of the root's largest
 /// coordinate: it covers [`TriangleAxes`]' rounding (at most 21 ε of it).
 pub(super) const MARGIN_GAMMA: u32 = 24;
+
+/// How far the build grows every cell before it files a primitive in it, for a tree whose root
+/// cell is `root`: [`MARGIN_GAMMA`] roundings of the root's largest coordinate. The build and
+/// every structure that relies on its filing ([`Octree::margin`](super::Octree::margin)) take
+/// it from here.
+pub(super) fn cell_margin(root: &Aabb) -> f32 {
+    root.min.abs().max(root.max.abs()).max_element() * gamma(MARGIN_GAMMA)
+}
 
 impl TriangleAxes {
     /// The axes of `tri` for children of half size `half` (grown by the margin) of the cell

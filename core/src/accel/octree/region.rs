@@ -1,9 +1,9 @@
 //! Which primitives the tree files near a region: for structures built beside the octree that
 //! must know every primitive a ray could meet inside a box (`accel::sphere_interiors`).
 
+use super::overlap::cell_margin;
 use super::{child_box, Octree, MAX_DEPTH_LIMIT};
 use crate::math::aabb::Aabb;
-use crate::math::float::gamma;
 use alloc::vec::Vec;
 
 impl Octree {
@@ -40,13 +40,12 @@ impl Octree {
         found
     }
 
-    /// How far the build grows every cell before it files a primitive in it, in world units:
-    /// the filing tests' rounding at the root's magnitude (`build.rs`). A primitive's test
-    /// reports hits where it lies, to within this: the walk visits only cells that hold a
-    /// primitive, and so does every structure that relies on the tree's filing.
+    /// How far the build grows every cell before it files a primitive in it, in world units
+    /// (the build's own [`cell_margin`]). A primitive's test reports hits where it lies, to
+    /// within this: the walk visits only cells that hold a primitive, and so does every
+    /// structure that relies on the tree's filing.
     pub fn margin(&self) -> f32 {
-        let root = self.root;
-        root.min.abs().max(root.max.abs()).max_element() * gamma(super::overlap::MARGIN_GAMMA)
+        cell_margin(&self.root)
     }
 }
 
@@ -54,6 +53,7 @@ impl Octree {
 mod tests {
     use super::super::OctreeParams;
     use super::*;
+    use crate::math::float::gamma;
     use glam::Vec3;
 
     /// A row of small triangles along x, one per unit.
@@ -93,12 +93,19 @@ mod tests {
         assert!(tree.filed_in(&outside).is_empty());
     }
 
+    /// The margin grows with the root's largest coordinate: a thousand times the scene, a
+    /// thousand times the margin (to the rounding of the root cell).
     #[test]
-    fn margin_is_the_builds() {
+    fn margin_scales_with_the_root() {
         let triangles = row(8);
-        let tree = Octree::build(&triangles, &OctreeParams::default());
-        let m = tree.margin();
+        let far: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|p| p * 1000.0)).collect();
+        let params = OctreeParams::default();
+        let (near, far) = (
+            Octree::build(&triangles, &params).margin(),
+            Octree::build(&far, &params).margin(),
+        );
         // The root of this row reaches x = 7.5.
-        assert!(m > 7.5 * gamma(1) && m < 8.0 * gamma(64), "{m}");
+        assert!(near > 7.5 * gamma(1) && near < 8.0 * gamma(64), "{near}");
+        assert!((far / near / 1000.0 - 1.0).abs() < 1e-5, "{near} {far}");
     }
 }
