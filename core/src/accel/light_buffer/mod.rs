@@ -48,7 +48,8 @@ use split::Splits;
 /// A cell with more primitives than this sends its queries through the octree walk.
 pub const CELL_LIMIT: usize = 64;
 
-/// Cells per primitive projected onto a face (before the budget shrinks them).
+/// Cells per primitive projected onto a face (before the budget shrinks them), or per primitive
+/// a small scene's buffer is sized for ([`MIN_PRIMITIVES`]).
 const CELLS_PER_PRIMITIVE: f32 = 8.0;
 
 /// How many grids the build may try, halving the cells per primitive each time to fit its
@@ -57,6 +58,17 @@ const COARSER: usize = 12;
 
 /// The most cells along one side of a face.
 const MAX_SIDE: u32 = 1024;
+
+/// A buffer's cells and kept entries are sized as for at least this many primitives, as the
+/// octree gets at least 64 KiB (`MIN_BUDGET` in its build): about 64 KiB of entries per light.
+/// A small scene's buffer was as coarse as its few primitives allowed (SPD's balls_2, 92
+/// primitives: 736 cells over six faces, 3.6 tests per shadow ray).
+const MIN_PRIMITIVES: usize = 1024;
+
+/// The number of primitives a buffer over `primitives` is sized for ([`MIN_PRIMITIVES`]).
+fn sized_for(primitives: usize) -> usize {
+    primitives.max(MIN_PRIMITIVES)
+}
 
 /// How many entries a buffer may keep per primitive, above one per cell.
 const KEPT: usize = 8;
@@ -212,8 +224,9 @@ impl LightBuffer {
         }
         let shapes = Shapes { triangles, solids };
         let footprints = shapes.footprints(light, guard);
-        let (kept_budget, filed_budget) = (KEPT * shapes.len(), FILED * shapes.len());
-        let mut density = CELLS_PER_PRIMITIVE;
+        let sized_for = sized_for(shapes.len());
+        let (kept_budget, filed_budget) = (KEPT * sized_for, FILED * shapes.len());
+        let mut density = CELLS_PER_PRIMITIVE * sized_for as f32 / shapes.len() as f32;
         for _ in 0..COARSER {
             let mut faces: [Option<Grid>; 6] =
                 core::array::from_fn(|f| grid_over(&footprints[f], density));
@@ -360,18 +373,19 @@ impl LightBuffer {
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
     /// primitives, what it keeps included: every primitive's footprints on all six faces (in
     /// vectors of at most twice their length, or 4); the cells (at most
-    /// [`CELLS_PER_PRIMITIVE`] per footprint plus the rounding up of [`MAX_SIDE`]-bounded sides
-    /// on each face) and the split cells' sub-cells, each counted, started and filled in `u32`
+    /// [`CELLS_PER_PRIMITIVE`] per footprint, or per primitive sized for ([`MIN_PRIMITIVES`]),
+    /// plus the rounding up of [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells, each counted, started and filled in `u32`
     /// arrays, with the list of crowded cells and a second count of the sub-cells; the split
     /// cells, their grids and their filed entries, twice; and the kept entries within their
     /// budgets.
     pub fn peak_bytes(primitives: usize) -> u64 {
         let n = primitives as u64;
+        let sized = sized_for(primitives) as u64;
         let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
-        let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * n + 2 * u64::from(MAX_SIDE) + 1);
+        let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * sized + 2 * u64::from(MAX_SIDE) + 1);
         let splits = Splits::most(primitives) as u64;
         let sub_cells = splits * split::CELLS as u64;
-        let kept = 2 * KEPT as u64 * n + cells + sub_cells;
+        let kept = 2 * KEPT as u64 * sized + cells + sub_cells;
         let split_cells =
             2 * splits * (size_of::<Grid>() + size_of::<u32>() + size_of::<usize>()) as u64;
         footprints
@@ -911,6 +925,25 @@ mod tests {
         let tris = scatter(&mut rng, 2000, 1.0, 0.8);
         let bounds = bounds_of(&tris, &[]);
         assert_eq!(LightBuffer::build(Vec3::ZERO, &bounds, &tris, &[]), None);
+    }
+
+    /// A scene of few primitives is gridded as one of [`MIN_PRIMITIVES`] (a halving for the
+    /// budget allowed), not by its own count: 60 triangles got 480 cells at most before.
+    #[test]
+    fn a_small_scene_is_gridded_as_a_larger_one() {
+        let mut rng = Rng::new(12);
+        let light = Vec3::new(0.0, 0.0, -8.0);
+        let tris = scatter(&mut rng, 60, 2.0, 0.1);
+        let bounds = bounds_of(&tris, &[]);
+        let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
+        let (cells, entries) = buffer.size();
+        let own = CELLS_PER_PRIMITIVE as usize * tris.len();
+        let floor = CELLS_PER_PRIMITIVE as usize * MIN_PRIMITIVES / 2;
+        assert!(
+            cells >= floor && cells > 4 * own,
+            "{cells} cells, {entries} entries"
+        );
+        assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len()));
     }
 
     #[test]
