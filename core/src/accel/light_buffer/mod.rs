@@ -224,9 +224,9 @@ impl LightBuffer {
         }
         let shapes = Shapes { triangles, solids };
         let footprints = shapes.footprints(light, guard);
-        let sized_for = sized_for(shapes.len());
-        let (kept_budget, filed_budget) = (KEPT * sized_for, FILED * shapes.len());
-        let mut density = CELLS_PER_PRIMITIVE * sized_for as f32 / shapes.len() as f32;
+        let sized = sized_for(shapes.len());
+        let (kept_budget, filed_budget) = (KEPT * sized, FILED * shapes.len());
+        let mut density = CELLS_PER_PRIMITIVE * sized as f32 / shapes.len() as f32;
         for _ in 0..COARSER {
             let mut faces: [Option<Grid>; 6] =
                 core::array::from_fn(|f| grid_over(&footprints[f], density));
@@ -373,11 +373,11 @@ impl LightBuffer {
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
     /// primitives, what it keeps included: every primitive's footprints on all six faces (in
     /// vectors of at most twice their length, or 4); the cells (at most
-    /// [`CELLS_PER_PRIMITIVE`] per footprint, or per primitive sized for ([`MIN_PRIMITIVES`]),
-    /// plus the rounding up of [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells, each counted, started and filled in `u32`
-    /// arrays, with the list of crowded cells and a second count of the sub-cells; the split
-    /// cells, their grids and their filed entries, twice; and the kept entries within their
-    /// budgets.
+    /// [`CELLS_PER_PRIMITIVE`] per primitive sized for, [`MIN_PRIMITIVES`] at least, plus the
+    /// rounding up of [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells,
+    /// each counted, started and filled in `u32` arrays, with the list of crowded cells and a
+    /// second count of the sub-cells; the split cells, their grids and their filed entries,
+    /// twice; and the kept entries within their budgets.
     pub fn peak_bytes(primitives: usize) -> u64 {
         let n = primitives as u64;
         let sized = sized_for(primitives) as u64;
