@@ -219,10 +219,10 @@ pub(super) fn bits(mut mask: u8) -> impl Iterator<Item = usize> {
 mod tests {
     use super::*;
     use crate::accel::octree::child_box;
-    use crate::accel::octree::overlap::{touches_in_f64, MARGIN_GAMMA};
+    use crate::accel::octree::overlap::{cell_margin, touches_in_f64};
     use crate::accel::octree::xorshift;
     use crate::geom::solid::extent::reject_box;
-    use crate::math::float::{gamma, next_float_down, next_float_up};
+    use crate::math::float::{next_float_down, next_float_up};
 
     /// The children of `cell` whose side of every centre plane the box `b` reaches (or lies on
     /// no other side of): where a primitive with that box may be filed.
@@ -361,12 +361,11 @@ mod tests {
             min: corner,
             max: corner + Vec3::splat(4.0),
         };
-        let magnitude = cell.min.abs().max(cell.max.abs()).max_element();
         let filing = Filing {
             triangles: &triangles,
             reach,
             solids: &solids,
-            margin: margin.max(magnitude * gamma(MARGIN_GAMMA)),
+            margin: margin.max(cell_margin(&cell)),
         };
         let cells = ChildCells::new(&cell, filing.margin);
         let mut counts = [0usize; 9];
@@ -451,7 +450,7 @@ mod tests {
             triangles: &triangles,
             reach: Vec::new(),
             solids: &[],
-            margin: 1004.0 * gamma(MARGIN_GAMMA),
+            margin: cell_margin(&cell),
         };
         let cells = ChildCells::new(&cell, filing.margin);
         let m = Vec3::splat(filing.margin);
