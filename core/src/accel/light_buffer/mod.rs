@@ -19,7 +19,10 @@
 //! rounding of the projection bounded ([`crate::math::float::gamma`]); a query whose `|o − L|`
 //! could make `e` larger than `g` walks the octree instead. Cells are found by a monotone map
 //! from the face coordinates, so a value inside a primitive's range lands in one of the cells
-//! it was filed in.
+//! it was filed in. A face answers only the directions whose depth is at least their other two
+//! coordinates (its pyramid), and so do the blocker's points `X − e` on it: a primitive that
+//! reaches the light's plane, whose projection is unbounded, is filed by the part of its box
+//! inside that pyramid, not over the whole face.
 //!
 //! Like the octree, the buffer relies on the primitive tests reporting hits on the primitive
 //! (or within its reach box, for solids, and within its larger radius and margin of its axis,
@@ -523,10 +526,11 @@ fn footprint(points: &[Vec3], light: Vec3, f: usize, guard: f32) -> Option<Footp
         hi: [1.0; 2],
         near: f32::NEG_INFINITY,
     };
-    // Reaching the light's plane: its projection is unbounded, so it covers the whole face.
+    // Reaching the light's plane: its projection is unbounded, but only the part the face
+    // sees is filed.
     let clear = w_min > 4.0 * guard;
     if !clear {
-        return Some(whole);
+        return seen_part(rel, f, guard).map(|p| p.unwrap_or(whole));
     }
     let mut lo = [f32::INFINITY; 2];
     let mut hi = [f32::NEG_INFINITY; 2];
@@ -558,6 +562,61 @@ fn footprint(points: &[Vec3], light: Vec3, f: usize, guard: f32) -> Option<Footp
         hi,
         near: w_min * (1.0 - gamma(2)) - guard,
     })
+}
+
+/// The footprint on face `f` of a primitive that reaches the light's plane (`rel`: its points
+/// relative to the light), from the part of it the face sees: a shadow query reads this face
+/// only for directions whose depth is at least their other two coordinates, so a point it
+/// files lies no nearer the light in depth than the primitive's gap from the light along those
+/// axes. A layer of primitives through the light's plane, off to the side (a lattice row
+/// pointing at the light), is thus not filed over the whole face. `None` where no part of it
+/// is seen, `Some(None)` where the gaps leave no positive depth (the whole face).
+fn seen_part(rel: impl Iterator<Item = Vec3>, f: usize, guard: f32) -> Option<Option<Footprint>> {
+    let (a, b, c, sign) = FACES[f];
+    let (lo, hi) = rel.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| {
+        (lo.min(r), hi.max(r))
+    });
+    let (d_lo, d_hi) = widened(lo[a], hi[a], guard);
+    let depth_hi = if sign > 0.0 { d_hi } else { -d_lo };
+    let across = [b, c].map(|k| widened(lo[k], hi[k], guard));
+    let gap = |(l, h): (f32, f32)| l.max(-h).max(0.0);
+    let near = gap(across[0]).max(gap(across[1]));
+    if near > depth_hi {
+        return None;
+    }
+    if near <= 0.0 {
+        return Some(None);
+    }
+    // `x / w` over `x` in `[l, h]` and the depth `w` in `[near, depth_hi]` is extreme at a
+    // corner; the corners' divisions and the query's own round by at most `gamma(2)·|x / w|`.
+    let mut print = Footprint {
+        lo: [-1.0; 2],
+        hi: [1.0; 2],
+        near,
+    };
+    for (k, (l, h)) in across.into_iter().enumerate() {
+        let ends = [l / near, l / depth_hi, h / near, h / depth_hi];
+        let (x_lo, x_hi) = ends
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(m, n), &x| {
+                (m.min(x), n.max(x))
+            });
+        let margin = gamma(2) * x_lo.abs().max(x_hi.abs()).min(1.0);
+        print.lo[k] = (x_lo - margin).max(-1.0);
+        print.hi[k] = (x_hi + margin).min(1.0);
+        if print.lo[k] > print.hi[k] {
+            return None;
+        }
+    }
+    Some(Some(print))
+}
+
+/// Bounds of the exact coordinates of a primitive's points moved by up to `guard`, where their
+/// computed values (each one rounding of `p − light`) span `[lo, hi]`: widened by twice the
+/// rounding and the guard, which covers the widening's own roundings.
+fn widened(lo: f32, hi: f32, guard: f32) -> (f32, f32) {
+    let out = |x: f32| 2.0 * (x.abs() * gamma(2) + guard);
+    (lo - out(lo), hi + out(hi))
 }
 
 /// The grid over a face's footprints with about `density` cells per footprint, or `None` if
@@ -944,6 +1003,138 @@ mod tests {
             "{cells} cells, {entries} entries"
         );
         assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len()));
+    }
+
+    /// Directions from the light, on the boundary between two faces.
+    const DIAGONALS: [Vec3; 2] = [Vec3::new(-1.0, 1.0, 0.0), Vec3::new(-1.0, 0.0, -1.0)];
+
+    /// A lattice of boxes around `[0, 1]³` (nodes, and bars between neighbours) with rows in
+    /// the planes through `light`, as SPD's even-sized lattices have, and boxes straddling those
+    /// planes on their diagonals, where a shadow ray's face is decided by a tie.
+    fn lattice(light: Vec3) -> Vec<Aabb> {
+        let (step, r) = (0.25, Vec3::splat(0.02));
+        let node = |i: usize, j: usize, k: usize| Vec3::new(i as f32, j as f32, k as f32) * step;
+        let mut boxes = Vec::new();
+        for (i, j, k) in
+            (0..5).flat_map(|i| (0..5).flat_map(move |j| (0..5).map(move |k| (i, j, k))))
+        {
+            let p = node(i, j, k);
+            boxes.push(Aabb {
+                min: p - r,
+                max: p + r,
+            });
+            for q in [node(i + 1, j, k), node(i, j + 1, k), node(i, j, k + 1)] {
+                if q.max_element() <= 1.0 {
+                    boxes.push(Aabb {
+                        min: p - r,
+                        max: q + r,
+                    });
+                }
+            }
+        }
+        for d in DIAGONALS {
+            let c = light + d * 0.75;
+            boxes.push(Aabb {
+                min: c - r,
+                max: c + r,
+            });
+        }
+        boxes
+    }
+
+    /// Primitives through the light's planes, off to the side, are filed only where a face
+    /// sees them: the faces that look along the rows get nothing, and every box on a shadow
+    /// ray is listed, the diagonal ones through the face their direction picks.
+    #[test]
+    fn a_layer_through_the_light_is_filed_where_the_face_sees_it() {
+        let mut rng = Rng::new(13);
+        let light = Vec3::new(2.0, 0.5, 0.5);
+        let boxes = lattice(light);
+        let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
+        let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
+        let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
+        // The rows' layers reach the planes of ±y and ±z; only the diagonal boxes show there.
+        let diagonal = |f: usize| f == 2 || f == 5;
+        for (f, grid) in buffer.faces.iter().enumerate() {
+            let seen = grid.map(|g| (g.hi[0] - g.lo[0]) * (g.hi[1] - g.lo[1]));
+            assert!(
+                f == 1 || seen.is_some_and(|area| diagonal(f) && area < 0.1) || seen.is_none(),
+                "face {f}: {grid:?}"
+            );
+        }
+        let mut answered = 0;
+        for k in 0..20_000 {
+            let j = k % boxes.len();
+            let b = boxes[j];
+            let inside =
+                b.min + (b.max - b.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            // Exactly along a diagonal for the last boxes (every sum is exact): the ray's face
+            // is decided by a tie.
+            let diagonal = (j + DIAGONALS.len()).checked_sub(boxes.len());
+            let origin = match diagonal {
+                Some(d) => light + DIAGONALS[d] * (0.75 * (1.0 + (k % 7) as f32 / 8.0)),
+                None => light + (inside - light) * rng.range(1.01, 1.5),
+            };
+            let ray = Ray::new(origin, light - origin);
+            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
+                continue;
+            };
+            answered += 1;
+            assert!(
+                list.contains(&(j as u32)),
+                "ray {ray:?}: box {j} not listed"
+            );
+        }
+        assert!(answered > 19_000, "{answered} answered");
+    }
+
+    /// Slabs beside the light that reach its planes are seen by the faces across them only
+    /// from their gap to the light on: shadow rays through their nearest seen points, at the
+    /// edge of a face's pyramid, list them (the depth bound is not above that gap).
+    #[test]
+    fn slabs_beside_the_light_are_listed_from_their_gap_on() {
+        let mut rng = Rng::new(14);
+        let light = Vec3::new(0.3, -0.2, 0.1);
+        // (the slab's side of the light, its gap, another axis across)
+        let slabs = [
+            (Vec3::Y, 0.05, Vec3::X),
+            (-Vec3::Z, 0.07, Vec3::Y),
+            (Vec3::X, 0.03, Vec3::Z),
+        ];
+        let boxes: Vec<Aabb> = slabs
+            .iter()
+            .map(|&(n, gap, _)| {
+                let (a, b) = (light + n * gap, light + n * 0.6);
+                Aabb {
+                    min: a.min(b) - (Vec3::ONE - n.abs()) * 0.5,
+                    max: a.max(b) + (Vec3::ONE - n.abs()) * 0.5,
+                }
+            })
+            .collect();
+        let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
+        let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
+        let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
+        let mut answered = 0;
+        for k in 0..30_000 {
+            let j = k % slabs.len();
+            let (n, gap, across) = slabs[j];
+            let side = n.cross(across);
+            // Just past the slab's near face, as far along `across` as the gap (the edge of
+            // `across`' face), within it sideways.
+            let t = gap * rng.range(1.0, 1.04) * if k % 2 == 0 { 1.0 } else { -1.0 };
+            let inside = light + n * gap * 1.0001 + across * t + side * rng.range(-gap, gap);
+            let origin = light + (inside - light) * rng.range(1.0001, 1.01);
+            let ray = Ray::new(origin, light - origin);
+            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
+                continue;
+            };
+            answered += 1;
+            assert!(
+                list.contains(&(j as u32)),
+                "ray {ray:?}: slab {j} not listed"
+            );
+        }
+        assert!(answered > 25_000, "{answered} answered");
     }
 
     #[test]
