@@ -1005,6 +1005,24 @@ mod tests {
         assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len()));
     }
 
+    /// The buffer of `light` over `boxes` (solids by their boxes).
+    fn box_buffer(light: Vec3, boxes: &[Aabb]) -> LightBuffer {
+        let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
+        let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
+        LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer")
+    }
+
+    /// Whether the buffer answers the shadow ray from `origin` (not a walk); panics where it
+    /// does without listing primitive `j`.
+    fn answers_listing(buffer: &LightBuffer, origin: Vec3, j: usize) -> bool {
+        let ray = Ray::new(origin, buffer.light - origin);
+        let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
+            return false;
+        };
+        assert!(list.contains(&(j as u32)), "ray {ray:?}: {j} not listed");
+        true
+    }
+
     /// Directions from the light, on the boundary between two faces.
     const DIAGONALS: [Vec3; 2] = [Vec3::new(-1.0, 1.0, 0.0), Vec3::new(-1.0, 0.0, -1.0)];
 
@@ -1050,9 +1068,7 @@ mod tests {
         let mut rng = Rng::new(13);
         let light = Vec3::new(2.0, 0.5, 0.5);
         let boxes = lattice(light);
-        let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
-        let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
-        let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
+        let buffer = box_buffer(light, &boxes);
         // The rows' layers reach the planes of ±y and ±z; only the diagonal boxes show there.
         let diagonal = |f: usize| f == 2 || f == 5;
         for (f, grid) in buffer.faces.iter().enumerate() {
@@ -1075,15 +1091,7 @@ mod tests {
                 Some(d) => light + DIAGONALS[d] * (0.75 * (1.0 + (k % 7) as f32 / 8.0)),
                 None => light + (inside - light) * rng.range(1.01, 1.5),
             };
-            let ray = Ray::new(origin, light - origin);
-            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
-                continue;
-            };
-            answered += 1;
-            assert!(
-                list.contains(&(j as u32)),
-                "ray {ray:?}: box {j} not listed"
-            );
+            answered += usize::from(answers_listing(&buffer, origin, j));
         }
         assert!(answered > 19_000, "{answered} answered");
     }
@@ -1111,9 +1119,7 @@ mod tests {
                 }
             })
             .collect();
-        let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
-        let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
-        let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
+        let buffer = box_buffer(light, &boxes);
         let mut answered = 0;
         for k in 0..30_000 {
             let j = k % slabs.len();
@@ -1124,15 +1130,7 @@ mod tests {
             let t = gap * rng.range(1.0, 1.04) * if k % 2 == 0 { 1.0 } else { -1.0 };
             let inside = light + n * gap * 1.0001 + across * t + side * rng.range(-gap, gap);
             let origin = light + (inside - light) * rng.range(1.0001, 1.01);
-            let ray = Ray::new(origin, light - origin);
-            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
-                continue;
-            };
-            answered += 1;
-            assert!(
-                list.contains(&(j as u32)),
-                "ray {ray:?}: slab {j} not listed"
-            );
+            answered += usize::from(answers_listing(&buffer, origin, j));
         }
         assert!(answered > 25_000, "{answered} answered");
     }
