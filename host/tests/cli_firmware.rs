@@ -105,7 +105,7 @@ fn qemu_here() -> Result<bool, Box<dyn Error>> {
 
 /// The firmware built plain, and built with a shared secret and a heap too small for the room
 /// (it announces more than the heap can give, so the room's octree runs it out; one build for
-/// both, as each build takes CI about 20 s), and the secret's file.
+/// both, as a rebuild takes about 19 s on 2 cores), and the secret's file.
 struct Firmware {
     plain: PathBuf,
     guarded: PathBuf,

@@ -588,7 +588,8 @@ fn seen_part(rel: impl Iterator<Item = Vec3>, f: usize, guard: f32) -> Option<Op
         return Some(None);
     }
     // `x / w` over `x` in `[l, h]` and the depth `w` in `[near, depth_hi]` is extreme at a
-    // corner; the corners' divisions and the query's own round by at most `gamma(2)·|x / w|`.
+    // corner; the corners' divisions and the query's own round by at most `gamma(2)·|x / w|`,
+    // and a query in this face has `|x / w| <= 1` (the ends beyond are clamped).
     let mut print = Footprint {
         lo: [-1.0; 2],
         hi: [1.0; 2],
