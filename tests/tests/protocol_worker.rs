@@ -1240,10 +1240,24 @@ fn scene_larger_than_memory_is_refused() {
     let (result, out) = run(&script, &node(estimate), &mut cache);
     assert_eq!(result, Ok(SessionEnd::Closed));
     let bare = Scene::build_within(&f.desc, &OctreeParams::default(), 0).expect("it builds");
-    assert_eq!(
-        out.last(),
-        Some(&expected_line(&Fixture { scene: bare, ..f }, 2, 0))
-    );
+    assert!(bare.light_buffers.iter().all(Option::is_none));
+    assert!(f.scene.light_buffers.iter().any(Option::is_some));
+    let full = expected_line(&f, 2, 0);
+    let want = expected_line(&Fixture { scene: bare, ..f }, 2, 0);
+    assert_eq!(out.last(), Some(&want));
+    let (
+        Out::Line { pixels, rays, .. },
+        Out::Line {
+            pixels: full_pixels,
+            rays: full_rays,
+            ..
+        },
+    ) = (&want, &full)
+    else {
+        unreachable!("expected_line makes lines")
+    };
+    assert_eq!(pixels, full_pixels);
+    assert!(rays.work.octree_cells > full_rays.work.octree_cells);
 }
 
 #[test]
