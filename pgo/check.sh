@@ -4,7 +4,8 @@
 # to the same bytes as the test build, which is built without it; and the profile is current:
 # where this is the compiler that recorded it (pgo/recorded-with), a function whose code changed
 # since (rustc warns "function control flow change detected") fails the check, as it would lose
-# its optimisation silently. Re-record with `bash pgo/record.sh`.
+# its optimisation silently. Re-record with `bash pgo/record.sh`. Last, a core built for
+# x86-64-v3 must refuse an emulated older processor with a message, not `Illegal instruction`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 case "$(uname -s)-$(uname -m)" in
@@ -45,3 +46,24 @@ for scene in "${scenes[@]}"; do
     fi
 done
 echo "pgo/check.sh: ${#scenes[@]} scenes byte-identical from the profile-guided release build"
+# A release core built for x86-64-v3 refuses, with the fix, a processor without its extensions
+# (an emulated Nehalem: SSE4.2, no AVX), instead of stopping at `Illegal instruction`.
+if [ "$(sh pgo/rustc-wrapper --cpu)" = x86-64-v3 ]; then
+    if ! command -v qemu-x86_64 >/dev/null; then
+        echo "pgo/check.sh: qemu-x86_64 is missing; install it with: apt-get install qemu-user" >&2
+        exit 1
+    fi
+    set +e
+    qemu-x86_64 -cpu Nehalem target/release/strahl render scenes/fart/die.fart -w 8 -h 8 \
+        --workers 1 -q -o "$out/old-cpu.png" 2>"$log"
+    rc=$?
+    set -e
+    if [ "$rc" != 1 ] || ! grep -q "lacks avx, avx2, bmi1, bmi2, f16c, fma, lzcnt, movbe; build it" "$log" ||
+        [ -e "$out/old-cpu.png" ]; then
+        echo "pgo/check.sh: on an emulated Nehalem the release build exited $rc, wanted 1 and:" \
+            "this processor lacks ...; build it ...; it wrote:" >&2
+        cat "$log" >&2
+        exit 1
+    fi
+    echo "pgo/check.sh: on an emulated Nehalem the x86-64-v3 build refuses to trace: $(cat "$log")"
+fi

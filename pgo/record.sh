@@ -55,4 +55,6 @@ render scenes/room/raytracer.cfg -w 160 -h 120 -m 3 --aa-threshold 0.1 --workers
 "$profdata" merge --sparse -o pgo/x86_64-unknown-linux-gnu.profdata "$raw"
 # The wrapper applies the profile only where the compiler's LLVM is at least this one.
 rustc -vV | sed -n 's/^release: /rustc /p; s/^LLVM version: \([0-9]*\).*/llvm \1/p' >pgo/recorded-with
+# ... and only to a core built for the processor level it was recorded with.
+echo "cpu $(sh pgo/rustc-wrapper --cpu)" >>pgo/recorded-with
 echo "pgo/record.sh: wrote pgo/x86_64-unknown-linux-gnu.profdata ($(wc -c <pgo/x86_64-unknown-linux-gnu.profdata) bytes)"

@@ -43,3 +43,18 @@ pub mod wire;
 pub mod worker;
 
 pub use glam::Vec3;
+
+/// The x86 extensions of x86-64-v3 (the level optimised x86_64 builds compile this crate for,
+/// `pgo/rustc-wrapper`), each with whether this build of the crate was compiled to use it. A
+/// constant, so a caller built for any x86-64 can read it, and refuse to run the tracer on a
+/// processor that lacks one (`strahl` does), before any of this crate's code runs.
+pub const X86_FEATURES: [(&str, bool); 8] = [
+    ("avx", cfg!(target_feature = "avx")),
+    ("avx2", cfg!(target_feature = "avx2")),
+    ("bmi1", cfg!(target_feature = "bmi1")),
+    ("bmi2", cfg!(target_feature = "bmi2")),
+    ("f16c", cfg!(target_feature = "f16c")),
+    ("fma", cfg!(target_feature = "fma")),
+    ("lzcnt", cfg!(target_feature = "lzcnt")),
+    ("movbe", cfg!(target_feature = "movbe")),
+];

@@ -12,7 +12,7 @@
 //! | interface | [`cli`]: one module per subcommand (`render worker convert generate bench`), `progress`, `summary`; [`output`] (BMP and PNG images) | the `strahl` command line, what it prints and the images it writes |
 //! | benchmarks | [`bench`](mod@bench): `speed`, `scaling`, `accuracy/`, `peers/`, `stats` | `strahl bench` and its studies |
 //! | view | [`view`]: `hub`, `events`, `server`, `page`, `control` | the live view in a browser (`render --view`, `strahl view`) |
-//! | base | [`util`]: `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
+//! | base | [`util`]: `cpu` (whether this processor runs the tracer as built), `sys` (host name, shared timeouts), `units` (rays per second as text) | used by the groups above, uses none |
 //!
 //! Dependencies point one way, from the interface down:
 //!

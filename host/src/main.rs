@@ -3,6 +3,7 @@
 use clap::Parser as _;
 use std::process::ExitCode;
 use strahl_host::cli::{run, Cli};
+use strahl_host::util::cpu;
 use strahl_host::util::text::printable;
 use strahl_host::util::usage::UsageError;
 
@@ -60,7 +61,8 @@ fn main() -> ExitCode {
     }
     // clap prints usage errors itself and exits with code 2 (0 for --help and --version).
     let cli = Cli::parse();
-    match run(cli) {
+    // Before any of the core's code runs, which may use instructions this processor lacks.
+    match cpu::check().and_then(|()| run(cli)) {
         Ok(()) => ExitCode::SUCCESS,
         // The reader of our output went away (`strahl bench | head`): nothing left to say.
         Err(err) if is_broken_pipe(&err) => ExitCode::SUCCESS,

@@ -1,5 +1,7 @@
-//! `pgo/rustc-wrapper`, through which Cargo runs rustc (`.cargo/config.toml`), adds the committed
-//! profile to optimised builds for x86_64 Linux by a compiler that reads it, and to nothing else.
+//! `pgo/rustc-wrapper`, through which Cargo runs rustc (`.cargo/config.toml`), adds to optimised
+//! builds for x86_64 Linux the processor level of the core (`STRAHL_CPU`, x86-64-v3 unless set)
+//! and the committed profile, where the compiler reads it and the level is the profile's; and
+//! adds nothing to other builds.
 //!
 //! Each test runs the wrapper with a stand-in compiler, a script that prints the arguments it was
 //! given (and, asked `-vV`, an LLVM version), and reads back what the wrapper passed on.
@@ -19,8 +21,13 @@ fn pgo_dir() -> PathBuf {
 }
 
 /// The arguments the wrapper hands to a compiler whose LLVM is `llvm`, given `args`, with the
-/// environment variable STRAHL_PGO set to `pgo` (or unset).
+/// environment variable STRAHL_PGO set to `pgo` (or unset) and STRAHL_CPU unset.
 fn passed_on(llvm: u32, args: &[&str], pgo: Option<&str>) -> Vec<String> {
+    passed_on_for(llvm, args, pgo, None)
+}
+
+/// [`passed_on`] with STRAHL_CPU set to `cpu` (or unset).
+fn passed_on_for(llvm: u32, args: &[&str], pgo: Option<&str>, cpu: Option<&str>) -> Vec<String> {
     let dir = tempfile::tempdir().expect("temporary folder");
     let fake = dir.path().join("rustc");
     fs::write(
@@ -34,9 +41,16 @@ fn passed_on(llvm: u32, args: &[&str], pgo: Option<&str>) -> Vec<String> {
     .expect("write the stand-in compiler");
     fs::set_permissions(&fake, fs::Permissions::from_mode(0o755)).expect("make it executable");
     let mut command = Command::new(pgo_dir().join("rustc-wrapper"));
-    command.arg(&fake).args(args).env_remove("STRAHL_PGO");
+    command
+        .arg(&fake)
+        .args(args)
+        .env_remove("STRAHL_PGO")
+        .env_remove("STRAHL_CPU");
     if let Some(value) = pgo {
         command.env("STRAHL_PGO", value);
+    }
+    if let Some(value) = cpu {
+        command.env("STRAHL_CPU", value);
     }
     let out = command.output().expect("run pgo/rustc-wrapper");
     assert!(out.status.success(), "the wrapper failed: {out:?}");
@@ -57,29 +71,64 @@ fn recorded_llvm() -> u32 {
 }
 
 const RELEASE: &[&str] = &["--crate-name", "strahl_core", "-C", "opt-level=3"];
+const HOST_RELEASE: &[&str] = &["--crate-name", "strahl_host", "-C", "opt-level=3"];
 
-fn with_profile(args: &[&str]) -> Vec<String> {
-    let profile = pgo_dir().join("x86_64-unknown-linux-gnu.profdata");
-    assert!(profile.is_file(), "the committed profile is missing");
-    let mut v: Vec<String> = args.iter().map(|a| a.to_string()).collect();
-    v.push(format!("-Cprofile-use={}", profile.display()));
-    v
-}
+/// True where the wrapper changes optimised builds at all.
+const THIS_MACHINE: bool = cfg!(all(target_os = "linux", target_arch = "x86_64"));
 
 fn unchanged(args: &[&str]) -> Vec<String> {
     args.iter().map(|a| a.to_string()).collect()
 }
 
-#[test]
-fn an_optimised_build_for_this_machine_gets_the_profile() {
-    let llvm = recorded_llvm();
-    let expected = if cfg!(all(target_os = "linux", target_arch = "x86_64")) {
-        with_profile(RELEASE)
+/// `args` with the core's processor level, on this machine.
+fn for_cpu(args: &[&str], cpu: &str) -> Vec<String> {
+    let mut v = unchanged(args);
+    if THIS_MACHINE {
+        v.push(format!("-Ctarget-cpu={cpu}"));
+    }
+    v
+}
+
+/// `args` with the flags an optimised build gets on this machine: the core's processor level
+/// where `core`, then the profile.
+fn optimised(args: &[&str], core: bool) -> Vec<String> {
+    let mut v = if core {
+        for_cpu(args, "x86-64-v3")
     } else {
-        unchanged(RELEASE)
+        unchanged(args)
     };
-    assert_eq!(passed_on(llvm, RELEASE, None), expected);
-    assert_eq!(passed_on(llvm + 1, RELEASE, Some("on")), expected);
+    let profile = pgo_dir().join("x86_64-unknown-linux-gnu.profdata");
+    assert!(profile.is_file(), "the committed profile is missing");
+    if THIS_MACHINE {
+        v.push(format!("-Cprofile-use={}", profile.display()));
+    }
+    v
+}
+
+#[test]
+fn an_optimised_build_for_this_machine_gets_the_profile_and_the_core_its_processor_level() {
+    let llvm = recorded_llvm();
+    assert_eq!(passed_on(llvm, RELEASE, None), optimised(RELEASE, true));
+    assert_eq!(
+        passed_on(llvm + 1, RELEASE, Some("on")),
+        optimised(RELEASE, true)
+    );
+    assert_eq!(
+        passed_on(llvm, HOST_RELEASE, None),
+        optimised(HOST_RELEASE, false)
+    );
+}
+
+#[test]
+fn the_profile_was_recorded_for_the_default_processor_level() {
+    let text = fs::read_to_string(pgo_dir().join("recorded-with")).expect("pgo/recorded-with");
+    assert!(text.lines().any(|l| l == "cpu x86-64-v3"), "{text}");
+    let out = Command::new(pgo_dir().join("rustc-wrapper"))
+        .arg("--cpu")
+        .env_remove("STRAHL_CPU")
+        .output()
+        .expect("run pgo/rustc-wrapper --cpu");
+    assert_eq!(String::from_utf8_lossy(&out.stdout), "x86-64-v3\n");
 }
 
 #[test]
@@ -112,9 +161,32 @@ fn other_builds_are_passed_through_unchanged() {
 }
 
 #[test]
-fn the_profile_is_left_out_when_asked_or_unreadable() {
+fn the_recording_builds_the_core_for_the_profiles_processor_level() {
+    let recording = [
+        "--crate-name",
+        "strahl_core",
+        "-C",
+        "opt-level=3",
+        "-Cprofile-generate=/tmp/r",
+    ];
     let llvm = recorded_llvm();
-    assert_eq!(passed_on(llvm, RELEASE, Some("off")), unchanged(RELEASE));
+    assert_eq!(
+        passed_on(llvm, &recording, Some("off")),
+        for_cpu(&recording, "x86-64-v3")
+    );
+}
+
+#[test]
+fn the_profile_is_left_out_when_asked_unreadable_or_for_another_processor() {
+    let llvm = recorded_llvm();
+    let core_only = for_cpu(RELEASE, "x86-64-v3");
+    assert_eq!(passed_on(llvm, RELEASE, Some("off")), core_only);
     // An older LLVM cannot read a newer profile's format: the build goes on without it.
-    assert_eq!(passed_on(llvm - 1, RELEASE, None), unchanged(RELEASE));
+    assert_eq!(passed_on(llvm - 1, RELEASE, None), core_only);
+    // A core built for another processor level than the profile's gets neither, nor do the
+    // crates built with it.
+    let plain = passed_on_for(llvm, RELEASE, None, Some("x86-64"));
+    assert_eq!(plain, for_cpu(RELEASE, "x86-64"));
+    let host = passed_on_for(llvm, HOST_RELEASE, None, Some("x86-64"));
+    assert_eq!(host, unchanged(HOST_RELEASE));
 }
