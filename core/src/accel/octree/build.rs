@@ -22,11 +22,11 @@
 
 use super::filing::{bits, ChildCells, Filing};
 use super::overlap::cell_margin;
+use super::queue::Queue;
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
-use alloc::collections::BinaryHeap;
 use alloc::rc::Rc;
 use alloc::vec::Vec;
 use glam::Vec3;
@@ -56,16 +56,16 @@ fn priority(gain: f32, depth: u32, bytes: usize) -> f32 {
 
 /// The queue's key of `node` at `priority` (positive, so its bits order as its value): the
 /// priority, then the node's complement, so that of two equal priorities the lower node comes
-/// first. One integer comparison orders two keys. The leaf's [`Queued`] slot is kept in its node
-/// record while it is queued ([`Builder::slot`]), not in the key: eight bytes a key instead of
-/// sixteen for the queue's sifts to move.
-fn queue_key(priority: f32, node: usize) -> u64 {
-    u64::from(priority.to_bits()) << 32 | u64::from(!(node as u32))
+/// first; below them the leaf's [`Queued`] slot, which orders nothing (nodes differ) but saves a
+/// load from the node's record on every pop. One integer comparison orders two keys.
+fn queue_key(priority: f32, node: usize, slot: u32) -> u128 {
+    let order = u64::from(priority.to_bits()) << 32 | u64::from(!(node as u32));
+    u128::from(order) << 64 | u128::from(slot)
 }
 
-/// The node of a [`queue_key`].
-fn queue_node(key: u64) -> usize {
-    !(key as u32) as usize
+/// The node and the slot of a [`queue_key`].
+fn queue_entry(key: u128) -> (usize, usize) {
+    (!((key >> 64) as u32) as usize, key as u32 as usize)
 }
 
 /// Bytes of a node and of a leaf entry.
@@ -83,7 +83,7 @@ struct Builder<'a> {
     queued: Vec<Queued>,
     free: Vec<u32>,
     /// Leaves worth splitting, best first: [`queue_key`]s (priority, then the lower node).
-    queue: BinaryHeap<u64>,
+    queue: Queue,
     /// The deepest leaf so far.
     depth: u32,
     /// Bytes of the tree as it stands (8 per node, 4 per leaf entry), and the most it may take.
@@ -193,7 +193,7 @@ impl Octree {
             leaves: Vec::with_capacity(most_nodes(budget)),
             queued: Vec::new(),
             free: Vec::new(),
-            queue: BinaryHeap::new(),
+            queue: Queue::default(),
             depth: 0,
             bytes: 0,
             masks: Vec::new(),
@@ -201,8 +201,8 @@ impl Octree {
         };
         b.add_leaf(root, 0, Refs::all(filed));
         while let Some(key) = b.queue.pop() {
-            let node = queue_node(key);
-            if !b.step(node, b.slot(node)) {
+            let (node, slot) = queue_entry(key);
+            if !b.step(node, slot) {
                 break;
             }
         }
@@ -356,15 +356,8 @@ impl Builder<'_> {
                 depth,
                 children: None,
             });
-            self.nodes[node].first = slot;
-            self.queue.push(queue_key(best, node));
+            self.queue.push(queue_key(best, node, slot));
         }
-    }
-
-    /// The [`Queued`] slot of queued leaf `node`: a leaf's record holds nothing else until
-    /// [`Builder::finish`] lays the tree out.
-    fn slot(&self, node: usize) -> usize {
-        self.nodes[node].first as usize
     }
 
     /// Keeps `queued` in a free slot, or a new one, and names it.
@@ -400,7 +393,7 @@ impl Builder<'_> {
         if gain > 0.0 {
             let added = 8 * NODE_BYTES + ENTRY_BYTES * total.saturating_sub(n);
             let p = priority(gain, depth, added);
-            self.queue.push(queue_key(p, node));
+            self.queue.push(queue_key(p, node, slot as u32));
             self.queued[slot].children = Some(children);
         } else {
             self.free.push(slot as u32);

@@ -11,12 +11,12 @@
 //!   short sides where it is flatter than 4 : 1 (every cell has the root's shape; see
 //!   `build.rs`).
 //! - [`build`](Octree::build) (in `build.rs`) splits cells at their centre, best split first by
-//!   the surface area heuristic, within [`BYTES_PER_PRIMITIVE`]. Which children a primitive
-//!   goes in is decided in `filing.rs`: a triangle every child cell it touches (exact
-//!   separating-axis test, in `overlap.rs`, on a box grown by its error bound), a sphere
-//!   standing alone every cell its surface passes through, and other solids every cell their
-//!   reject box touches; a primitive that only touches a centre plane from one side is filed on
-//!   that side alone.
+//!   the surface area heuristic (its queue of leaves in `queue.rs`), within
+//!   [`BYTES_PER_PRIMITIVE`]. Which children a primitive goes in is decided in `filing.rs`: a
+//!   triangle every child cell it touches (exact separating-axis test, in `overlap.rs`, on a
+//!   box grown by its error bound), a sphere standing alone every cell its surface passes
+//!   through, and other solids every cell their reject box touches; a primitive that only
+//!   touches a centre plane from one side is filed on that side alone.
 //! - [`closest_hit`](Octree::closest_hit) and [`any_hit`](Octree::any_hit) (in `traverse.rs`)
 //!   walk the cells a ray crosses or touches (on both sides of a centre plane where the ray
 //!   meets it), nearest child first, with a fixed-size stack; `closest_hit_grouped` and
@@ -41,6 +41,7 @@ mod filing;
 pub use build::BYTES_PER_PRIMITIVE;
 mod overlap;
 mod packet;
+mod queue;
 mod region;
 pub use packet::{lanes_of, per_lane, PacketStack, LANES};
 mod traverse;
