@@ -5,7 +5,7 @@
 //!
 //! It reads in layers, bottom up; each uses only the layers listed before it (a test,
 //! `tests/tests/layers.rs`, fails when a module imports from a later layer):
-//! 1. [`math`]: float error bounds, rays, boxes, affine transforms.
+//! 1. [`math`]: float error bounds, rays, boxes, affine transforms, square roots and lengths.
 //! 2. [`geom`]: the watertight triangle test, analytic solids and CSG, the hit ordering rule,
 //!    the axis-aligned planes that triangles share.
 //! 3. [`accel`]: the arena octree over triangles and bounded solids, per light the primitives

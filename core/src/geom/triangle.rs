@@ -13,6 +13,7 @@
 //! rejected. The inside/outside decision is always the `f32` one, so watertightness is kept.
 
 use crate::math::float::{gamma, next_float_up, MACHINE_EPSILON};
+use crate::math::norm::Norm;
 use crate::math::ray::Ray;
 use glam::{Vec3, Vec3A, Vec4};
 
@@ -369,7 +370,7 @@ pub fn area_normal(p: &[Vec3; 3]) -> Vec3 {
 /// definition of "degenerate": such triangles are left out of the octree and never hit.
 #[inline]
 pub fn unit_normal(p: &[Vec3; 3]) -> Option<Vec3> {
-    area_normal(p).try_normalize()
+    area_normal(p).try_unit()
 }
 
 #[cfg(test)]
@@ -436,7 +437,7 @@ mod tests {
         let h = intersect(&RayFrame::new(&r), &tri(), f32::INFINITY).expect("hit");
         assert_eq!(h.t, 1.0);
         let (p, _) = hit_point(&tri(), h.b);
-        assert!((p - Vec3::new(0.25, 0.25, 0.0)).length() < 1e-6);
+        assert!((p - Vec3::new(0.25, 0.25, 0.0)).norm() < 1e-6);
     }
 
     #[test]

@@ -1,9 +1,37 @@
-//! Square roots of several numbers at once, each `libm::sqrtf`'s to the bit.
+//! Square roots, of one number or of several at once, each `libm::sqrtf`'s to the bit.
 //!
-//! IEEE 754 requires a square root to be correctly rounded, so the processor's vector
-//! instruction (SSE's `sqrtps`, NEON's `fsqrt`) gives the bits `libm::sqrtf` gives, four at a
-//! time. They are reached through the `wide` crate's safe `f32x4`; where the target has neither,
-//! each lane is `libm::sqrtf` itself (a board's build keeps the code it had).
+//! IEEE 754 requires a square root to be correctly rounded, so the processor's instruction
+//! (SSE's `sqrtps`, NEON's `fsqrt`) gives the bits `libm::sqrtf` gives, four at a time. They are
+//! reached through the `wide` crate's safe `f32x4`; where the target has neither, each lane is
+//! `libm::sqrtf` itself (a board's build keeps the code it had).
+//!
+//! One number's root ([`sqrt`]) goes the same way, and every square root of the core's own code
+//! is one of these (`core/clippy.toml` refuses `libm::sqrtf` and glam's lengths of a `Vec3`;
+//! [`super::norm`] has those). `libm::sqrtf` on x86 is an `asm!` block of the legacy SSE
+//! instruction `sqrtss`, which the compiler copies as it is into code built for x86-64-v3, whose
+//! other instructions are AVX's: on the Intel Xeon of 2026-11-29 each such `sqrtss` among them
+//! cost so much that the tracer took 1.2 to 1.5 times as long (`docs/performance.md`,
+//! twenty-ninth round). Through `wide` the compiler picks the encoding (`vsqrtps` there).
+
+/// `libm::sqrtf` of `x`.
+#[inline(always)]
+pub fn sqrt(x: f32) -> f32 {
+    #[cfg(any(
+        target_feature = "sse",
+        all(target_arch = "aarch64", target_feature = "neon")
+    ))]
+    {
+        wide::f32x4::splat(x).sqrt().to_array()[0]
+    }
+    #[cfg(not(any(
+        target_feature = "sse",
+        all(target_arch = "aarch64", target_feature = "neon")
+    )))]
+    {
+        #[allow(clippy::disallowed_methods)] // no vector unit: the crate's own
+        libm::sqrtf(x)
+    }
+}
 
 /// `libm::sqrtf` of every lane of `x`.
 #[inline(always)]
@@ -20,7 +48,7 @@ pub fn sqrt_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
             c.copy_from_slice(&v.to_array());
         }
         for v in chunks.into_remainder() {
-            *v = libm::sqrtf(*v);
+            *v = sqrt(*v);
         }
         out
     }
@@ -29,7 +57,7 @@ pub fn sqrt_lanes<const N: usize>(x: [f32; N]) -> [f32; N] {
         all(target_arch = "aarch64", target_feature = "neon")
     )))]
     {
-        x.map(libm::sqrtf)
+        x.map(sqrt)
     }
 }
 
@@ -58,6 +86,18 @@ mod tests {
     }
 
     #[test]
+    fn one_root_is_libms_to_the_bit() {
+        let mut finite = 0;
+        for x in samples() {
+            #[allow(clippy::disallowed_methods)] // the reference
+            let expected = libm::sqrtf(x);
+            assert_eq!(sqrt(x).to_bits(), expected.to_bits(), "sqrt({x:e})");
+            finite += usize::from(expected.is_finite() && x > 0.0);
+        }
+        assert!(finite > 50_000, "{finite} positive finite roots");
+    }
+
+    #[test]
     fn each_lane_is_libms_to_the_bit() {
         let xs: alloc::vec::Vec<f32> = samples().collect();
         let mut finite = 0;
@@ -65,7 +105,9 @@ mod tests {
             let lanes: [f32; 7] = chunk.try_into().expect("seven");
             let got = sqrt_lanes(lanes);
             for (x, r) in lanes.iter().zip(got) {
-                assert_eq!(r.to_bits(), libm::sqrtf(*x).to_bits(), "sqrt({x:e})");
+                #[allow(clippy::disallowed_methods)] // the reference
+                let expected = libm::sqrtf(*x);
+                assert_eq!(r.to_bits(), expected.to_bits(), "sqrt({x:e})");
                 finite += usize::from(r.is_finite() && *x > 0.0);
             }
         }

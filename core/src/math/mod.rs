@@ -5,12 +5,16 @@
 //! - [`ray`]: rays and the offsetting of a new ray's origin past a hit point's error bound.
 //! - [`aabb`]: axis-aligned boxes and the robust slab test.
 //! - [`transform`]: affine placements of shapes, inverted once, with their error bounds.
-//! - [`lanes`]: square roots of several numbers at once, each the scalar one's to the bit.
+//! - [`lanes`]: square roots, of one number or several at once, each `libm::sqrtf`'s to the
+//!   bit, in the encoding of the code around them.
+//! - [`norm`]: a vector's length and unit vector, glam's to the bit, with `lanes`' root.
 //!
-//! `float` ← `ray` ← `aabb`; `float` ← `transform`. Nothing here knows about scenes.
+//! `float` ← `ray` ← `aabb`; `float` ← `transform`; `lanes` ← `norm`. Nothing here knows about
+//! scenes.
 
 pub mod aabb;
 pub mod float;
 pub mod lanes;
+pub mod norm;
 pub mod ray;
 pub mod transform;

@@ -5,6 +5,7 @@
 //! with its inverse ([`Placement`]) so rays go into object space and hits and normals come back out.
 //! All products use glam's scalar `Mat3`/`Vec3`, so every machine rounds them identically.
 
+use super::norm::Norm;
 use crate::math::float::gamma;
 use glam::{Mat3, Vec3, Vec4};
 
@@ -151,7 +152,7 @@ impl Placement {
     /// An object-space normal in world space, unit length (or zero if it vanishes).
     #[inline]
     pub fn normal_to_world(&self, n: Vec3) -> Vec3 {
-        (self.normal_matrix * n).normalize_or_zero()
+        (self.normal_matrix * n).unit_or_zero()
     }
 
     /// An object-space point with per-axis error `error` mapped to world space, with the error
@@ -221,7 +222,7 @@ mod tests {
     fn rotation_about_z_turns_x_into_y() {
         let r = Transform::rotate_xyz_deg(Vec3::new(0.0, 0.0, 90.0));
         let p = r.point(Vec3::X);
-        assert!((p - Vec3::Y).length() < 1e-6, "{p:?}");
+        assert!((p - Vec3::Y).norm() < 1e-6, "{p:?}");
     }
 
     #[test]

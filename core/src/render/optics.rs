@@ -1,5 +1,6 @@
 //! Mirror reflection and refraction by Snell's law.
 
+use crate::math::lanes::sqrt;
 use glam::Vec3;
 
 /// `d` mirrored about the unit normal `n`.
@@ -19,13 +20,14 @@ pub fn refract(d: Vec3, n: Vec3, n1: f32, n2: f32) -> Option<Vec3> {
     if sin2_t > 1.0 {
         return None;
     }
-    let cos_t = libm::sqrtf(1.0 - sin2_t);
+    let cos_t = sqrt(1.0 - sin2_t);
     Some(d * eta + n * (eta * cos_i - cos_t))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::norm::Norm;
 
     #[test]
     fn snell_holds_and_total_internal_reflection_starts_at_the_critical_angle() {
@@ -34,7 +36,7 @@ mod tests {
         let d = Vec3::new(libm::sinf(theta), -libm::cosf(theta), 0.0);
         let t = refract(d, n, 1.0, 1.5).expect("refracts");
         assert!((t.x - libm::sinf(theta) / 1.5).abs() < 1e-6, "{t:?}");
-        assert!((t.length() - 1.0).abs() < 1e-6);
+        assert!((t.norm() - 1.0).abs() < 1e-6);
         let critical = libm::asinf(1.0 / 1.5);
         let just_under = critical - 1e-3;
         let just_over = critical + 1e-3;

@@ -6,6 +6,7 @@
 //! stay byte-identical. Patterns are stratified: an `m × m` grid of cells, one jittered sample per
 //! cell.
 
+use crate::math::lanes::sqrt;
 use glam::Vec3;
 
 /// A 32-bit integer hash with good avalanche (the "lowbias32" finaliser by Chris Wellons).
@@ -58,12 +59,12 @@ pub fn hemisphere(normal: Vec3, seed: u32, k: u32, n: u32) -> Vec3 {
     let h = mix(seed, k);
     let u1 = ((k % n) as f32 + unit(h)) / n as f32;
     let u2 = ((k / n) as f32 + unit(hash32(h))) / n as f32;
-    let r = libm::sqrtf(u1);
+    let r = sqrt(u1);
     let phi = 2.0 * core::f32::consts::PI * u2;
     let local = Vec3::new(
         r * libm::cosf(phi),
         r * libm::sinf(phi),
-        libm::sqrtf((1.0 - u1).max(0.0)),
+        sqrt((1.0 - u1).max(0.0)),
     );
     let (t, b) = basis(normal);
     t * local.x + b * local.y + normal * local.z
@@ -84,6 +85,7 @@ fn basis(n: Vec3) -> (Vec3, Vec3) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::norm::Norm;
 
     #[test]
     fn one_sample_is_the_pixel_centre_and_m_samples_fill_their_cells() {
@@ -99,7 +101,7 @@ mod tests {
         for n in [Vec3::Z, Vec3::NEG_Z, Vec3::new(0.6, 0.0, 0.8), Vec3::NEG_Y] {
             for k in 0..16 {
                 let d = hemisphere(n, 99, k, 4);
-                assert!((d.length() - 1.0).abs() < 1e-5, "{d:?}");
+                assert!((d.norm() - 1.0).abs() < 1e-5, "{d:?}");
                 assert!(d.dot(n) >= 0.0, "{d:?} below {n:?}");
             }
         }

@@ -33,6 +33,7 @@
 
 use crate::accel::octree::{per_lane, LANES};
 use crate::geom::triangle::{hit_point, unit_normal};
+use crate::math::norm::Norm;
 use crate::math::ray::{LeavingOrigins, Ray};
 use crate::render::intersect::{PrimitiveHit, QueryScratch, ShadowMemory};
 use crate::render::optics::{reflect, refract};
@@ -193,7 +194,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
             let geometric = if entering { outward } else { -outward };
             let n = &scene.triangle_normals[t];
             let b = h.b;
-            let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).normalize_or_zero();
+            let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).unit_or_zero();
             if shading == Vec3::ZERO {
                 shading = geometric;
             } else if shading.dot(geometric) < 0.0 {
@@ -276,7 +277,7 @@ fn local_color(
     }
     for (index, (light, last_blocker)) in scene.lights.iter().zip(blockers.iter_mut()).enumerate() {
         let to_light = light.position - s.point;
-        let dist = to_light.length();
+        let dist = to_light.norm();
         if dist == 0.0 {
             continue;
         }
@@ -466,7 +467,7 @@ impl RayTree {
         };
         let spans = &mut scratch.query;
         let s = surface(scene, &p.ray, &hit);
-        let view = -p.ray.dir.normalize();
+        let view = -p.ray.dir.unit();
         let d = -view;
         let split = split(scene, &s, d, &p);
         let naive = !settings.skip_effects;

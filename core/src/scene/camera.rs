@@ -6,6 +6,7 @@
 //! `angle_z` turns it about the world Z axis (positive turns left, counter-clockwise seen from
 //! above); both in degrees. Zoom `z` gives a horizontal field of view of `2·atan(1/z)`.
 
+use crate::math::norm::Norm;
 use crate::math::ray::Ray;
 use glam::Vec3;
 
@@ -55,7 +56,7 @@ impl Camera {
                     && c.vfov_deg > 0.0
                     && c.vfov_deg < 180.0
                     && forward != Vec3::ZERO
-                    && forward.cross(c.up).normalize_or_zero() != Vec3::ZERO
+                    && forward.cross(c.up).unit_or_zero() != Vec3::ZERO
             }
         }
     }
@@ -107,8 +108,8 @@ impl CameraFrame {
     }
 
     fn look_at(cam: &LookAtCamera, width: u32, height: u32) -> Self {
-        let forward = (cam.look_at - cam.position).normalize_or_zero();
-        let right = forward.cross(cam.up).normalize_or_zero();
+        let forward = (cam.look_at - cam.position).unit_or_zero();
+        let right = forward.cross(cam.up).unit_or_zero();
         let up = right.cross(forward);
         let half = libm::tanf(cam.vfov_deg.to_radians() * 0.5);
         let aspect = height as f32 / width as f32;
@@ -202,10 +203,10 @@ mod tests {
             vfov_deg: 90.0,
         });
         let f = CameraFrame::new(&cam, 200, 100);
-        let centre = f.ray(100.0, 50.0).dir.normalize();
-        assert!((centre - Vec3::NEG_Z).length() < 1e-6);
+        let centre = f.ray(100.0, 50.0).dir.unit();
+        assert!((centre - Vec3::NEG_Z).norm() < 1e-6);
         // 90° vertical: the top edge's centre is 45° up.
-        let top = f.ray(100.0, 0.0).dir.normalize();
+        let top = f.ray(100.0, 0.0).dir.unit();
         assert!((top.y - top.z.abs()).abs() < 1e-6 && top.y > 0.0, "{top:?}");
         assert!(f.ray(200.0, 50.0).dir.x > 0.0, "right edge is +X");
         assert!(cam.is_valid());

@@ -6,6 +6,7 @@
 //! large benchmark scene) and the octree and solid tests build their geometry here.
 
 use super::model::TriangleDesc;
+use crate::math::lanes::sqrt;
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -67,7 +68,7 @@ impl Rng {
             // Rejection sampling in the unit ball; points near the centre are dropped so the
             // division below never magnifies rounding (the distribution stays uniform).
             if l > 1e-4 && l <= 1.0 {
-                return v / libm::sqrtf(l);
+                return v / sqrt(l);
             }
         }
     }

@@ -17,6 +17,7 @@ use crate::geom::solid::extent::SolidExtent;
 use crate::geom::solid::prepared::Solids;
 use crate::geom::triangle::{area_normal, unit_normal};
 use crate::math::aabb::Aabb;
+use crate::math::norm::Norm;
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -256,10 +257,10 @@ fn smooth_normals(desc: &SceneDesc, triangle_points: &[[Vec3; 3]]) -> (Vec<[Vec3
         .map(|(t, &face)| {
             if let Some(given) = t.normals {
                 // Checked by `validate`: in range and not zero.
-                return given.map(|i| desc.normals[i as usize].normalize_or_zero());
+                return given.map(|i| desc.normals[i as usize].unit_or_zero());
             }
             t.points.map(|i| {
-                let n = point_normals[i as usize].normalize_or_zero();
+                let n = point_normals[i as usize].unit_or_zero();
                 if n == Vec3::ZERO {
                     face
                 } else {
@@ -277,7 +278,7 @@ fn occlusion_distance(settings: &RenderSettings, bounds: &Aabb) -> f32 {
     if let Some(distance) = settings.ao_distance {
         return distance;
     }
-    let diagonal = (bounds.max - bounds.min).length();
+    let diagonal = (bounds.max - bounds.min).norm();
     if diagonal > 0.0 && diagonal.is_finite() {
         0.1 * diagonal
     } else {

@@ -41,6 +41,7 @@ mod split;
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use crate::math::lanes::sqrt;
 use crate::math::ray::Ray;
 use alloc::vec;
 use alloc::vec::Vec;
@@ -642,7 +643,7 @@ fn grid_over(prints: &[(u32, Footprint)], density: f32) -> Option<Grid> {
     } else {
         1.0
     };
-    let nu = libm::ceilf(libm::sqrtf(cells * aspect));
+    let nu = libm::ceilf(sqrt(cells * aspect));
     let nv = libm::ceilf(cells / nu.max(1.0));
     let side = [nu, nv].map(|n| (n as u32).clamp(1, MAX_SIDE));
     let scale = [0, 1].map(|k| {
@@ -683,6 +684,7 @@ mod tests {
     use super::*;
     use crate::geom::solid::extent::reject_margin;
     use crate::geom::triangle::{intersect, RayFrame};
+    use crate::math::norm::Norm;
     use crate::scene::mesh::Rng;
 
     pub(super) fn point(rng: &mut Rng, r: f32) -> Vec3 {
@@ -779,7 +781,7 @@ mod tests {
             for k in 0..20_000 {
                 // A point on a cone's side or cap, and a shadow ray from just beyond it.
                 let (j, (_, [a, b], [r0, r1])) = (k % cones.len(), cones[k % cones.len()]);
-                let axis = (b - a).normalize();
+                let axis = (b - a).unit();
                 let (u, v) = axis.any_orthonormal_pair();
                 let (t, angle) = (rng.next_f32(), rng.range(0.0, core::f32::consts::TAU));
                 let radius = (r0 + (r1 - r0) * t) * if k % 5 == 0 { rng.next_f32() } else { 1.0 };

@@ -200,6 +200,8 @@ pub(super) fn touches_in_f64(tri: &[Vec3; 3], lo: Vec3, hi: Vec3) -> bool {
 mod tests {
     use super::*;
     use crate::accel::octree::xorshift;
+    use crate::math::lanes::sqrt;
+    use crate::math::norm::Norm;
 
     #[test]
     fn a_sphere_is_filed_where_its_surface_is() {
@@ -219,7 +221,7 @@ mod tests {
         assert!(!sphere_surface_box_overlap(c, 1.0, 1e-4, lo, hi));
         assert!(sphere_surface_box_overlap(c, 1.0, 0.11, lo, hi));
         // Inside, the box's far corner 0.05 below the surface: kept only with a wider margin.
-        let far_corner = libm::sqrtf(3.0 * 0.01);
+        let far_corner = sqrt(3.0 * 0.01);
         assert!(sphere_surface_box_overlap(
             Vec3::ZERO,
             far_corner + 0.05,
@@ -238,10 +240,10 @@ mod tests {
 
     /// Points on the unit sphere, spread evenly (a Fibonacci lattice).
     fn surface_points(n: usize) -> impl Iterator<Item = Vec3> {
-        let golden = core::f32::consts::PI * (3.0 - libm::sqrtf(5.0));
+        let golden = core::f32::consts::PI * (3.0 - sqrt(5.0));
         (0..n).map(move |i| {
             let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-            let r = libm::sqrtf(1.0 - z * z);
+            let r = sqrt(1.0 - z * z);
             let a = golden * i as f32;
             Vec3::new(r * libm::cosf(a), r * libm::sinf(a), z)
         })
@@ -294,7 +296,7 @@ mod tests {
         for slant in 0..8 {
             let a = Vec3::new(-0.9, -0.3 * slant as f32 / 8.0, 0.2);
             let b = Vec3::new(0.8, 0.1 * slant as f32, -0.4 + 0.1 * slant as f32);
-            let axis = (b - a).normalize();
+            let axis = (b - a).unit();
             let u = axis.any_orthonormal_vector();
             let v = axis.cross(u);
             let points: alloc::vec::Vec<Vec3> = (0..3000)

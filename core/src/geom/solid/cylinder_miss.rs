@@ -87,6 +87,7 @@ pub fn surely_misses_side4(r: f32, o: [Vec4; 3], d: [Vec4; 3]) -> u32 {
 mod tests {
     use super::super::shape::cone_side;
     use super::*;
+    use crate::math::norm::Norm;
     use crate::scene::mesh::Rng;
 
     /// `shape.rs`'s answer for the side of a cylinder of radius `r` and height 2: true where it
@@ -101,8 +102,8 @@ mod tests {
         let mut unit = || rng.next_f32() * 2.0 - 1.0;
         let scale = libm::exp2f(unit() * 40.0);
         let r = scale * (0.5 + unit().abs());
-        let across = Vec3::new(unit(), 0.0, unit()).normalize_or(Vec3::X);
-        let dir = (across + Vec3::Y * unit() * 4.0).normalize();
+        let across = Vec3::new(unit(), 0.0, unit()).unit_or(Vec3::X);
+        let dir = (across + Vec3::Y * unit() * 4.0).unit();
         let side = Vec3::new(-across.z, 0.0, across.x);
         let far = libm::exp2f(unit().abs() * 16.0);
         let closest = side * r * (1.0 + k) + Vec3::Y * r * unit() * 8.0;

@@ -10,6 +10,7 @@
 
 #![cfg(test)]
 
+use crate::math::norm::Norm;
 use crate::scene::mesh::Rng;
 use glam::{Vec3, Vec4};
 
@@ -45,7 +46,7 @@ pub fn sure_misses_are_misses(
             sure_misses += 1;
             assert!(full(r, o, d), "case {case}: r {r:e}, o {o:?}, d {d:?}");
         }
-        if k > 1e-2 && o.length() < 16.0 * r && covered(r, o, d) {
+        if k > 1e-2 && o.norm() < 16.0 * r && covered(r, o, d) {
             clear_misses += 1;
             caught += usize::from(sure(r, o, d));
         }

@@ -15,6 +15,7 @@ use super::spans::{combine, Boundary, Span};
 use super::{CsgOp, Shape, SolidNode};
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use crate::math::norm::Norm;
 use crate::math::ray::Ray;
 use crate::math::transform::Placement;
 use alloc::vec::Vec;
@@ -594,7 +595,7 @@ impl Solids {
         let (point, point_error) = placement.point_to_world(p, err);
         let mut normal = placement.normal_to_world(object_normal);
         if normal == Vec3::ZERO {
-            normal = -ray.dir.normalize();
+            normal = -ray.dir.unit();
         }
         if hit.flip {
             normal = -normal;

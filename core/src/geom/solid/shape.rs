@@ -11,6 +11,8 @@ use super::sphere_miss::surely_misses;
 use super::Shape;
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
+use crate::math::lanes::sqrt;
+use crate::math::norm::Norm;
 use glam::Vec3;
 
 /// Which face of a shape a crossing lies on (box: `2·axis + (1 if +side)`; cylinder: 0 side,
@@ -70,7 +72,7 @@ fn quadratic(a: f32, b: f32, disc: f32, c: f32) -> Option<(f32, f32)> {
     if disc < 0.0 || a == 0.0 {
         return None;
     }
-    let root = libm::sqrtf(disc);
+    let root = sqrt(disc);
     let q = if b < 0.0 {
         -0.5 * (b - root)
     } else {
@@ -216,7 +218,7 @@ fn sphere(r: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
 }
 
 fn plane(n: Vec3, offset: f32, o: Vec3, d: Vec3) -> Option<ShapeSpan> {
-    let unit = n.normalize();
+    let unit = n.unit();
     let dist = unit.dot(o) - offset; // > 0: outside
     let speed = unit.dot(d);
     if speed == 0.0 {
@@ -532,8 +534,8 @@ pub(super) fn cone_side(
 /// The outward normal (unit length) of `face` of `shape` at the object-space point `p`.
 pub fn normal(shape: &Shape, p: Vec3, face: Face) -> Vec3 {
     match *shape {
-        Shape::Sphere { .. } => p.normalize_or_zero(),
-        Shape::Plane { normal, .. } => normal.normalize(),
+        Shape::Sphere { .. } => p.unit_or_zero(),
+        Shape::Plane { normal, .. } => normal.unit(),
         Shape::Cuboid { .. } => {
             let axis = (face / 2) as usize;
             let mut n = Vec3::ZERO;
@@ -550,7 +552,7 @@ pub fn normal(shape: &Shape, p: Vec3, face: Face) -> Vec3 {
             _ => {
                 let k = (top_radius - bottom_radius) / height;
                 let r = bottom_radius + k * (p.y + 0.5 * height);
-                Vec3::new(p.x, -k * r, p.z).normalize_or_zero()
+                Vec3::new(p.x, -k * r, p.z).unit_or_zero()
             }
         },
     }
@@ -564,7 +566,7 @@ pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face
     let rough = d.abs() * t_error + (o.abs() + p.abs()) * gamma(3);
     match *shape {
         Shape::Sphere { radius } => {
-            let len = p.length();
+            let len = p.norm();
             if len == 0.0 {
                 return (p, rough);
             }
@@ -572,7 +574,7 @@ pub fn surface(shape: &Shape, o: Vec3, d: Vec3, t: f32, t_error: f32, face: Face
             (q, q.abs() * gamma(5))
         }
         Shape::Plane { normal, d } => {
-            let unit = normal.normalize();
+            let unit = normal.unit();
             let q = p - unit * (unit.dot(p) - d);
             (q, (q.abs() + Vec3::splat(d.abs())) * gamma(8))
         }
@@ -616,7 +618,7 @@ fn cylinder_surface(shape: (f32, f32, f32), p: Vec3, rough: Vec3, face: Face) ->
     let (bottom_radius, top_radius, height) = shape;
     let half = 0.5 * height;
     let mut q = p;
-    let across = libm::sqrtf(p.x * p.x + p.z * p.z);
+    let across = sqrt(p.x * p.x + p.z * p.z);
     if face != 0 {
         // On a cap: exactly on its plane, and (like a box's face) pulled back onto the
         // disc if a ray that counts as inside the caps' slab or only touches the rim

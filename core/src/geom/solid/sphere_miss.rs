@@ -64,6 +64,7 @@ pub fn surely_misses4(r: f32, o: [Vec4; 3], d: [Vec4; 3]) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::norm::Norm;
     use crate::scene::mesh::Rng;
 
     /// The distance form's answer, as `shape.rs` computes it: true where it finds no roots.
@@ -79,7 +80,7 @@ mod tests {
         let mut unit = || rng.next_f32() * 2.0 - 1.0;
         let scale = libm::exp2f(unit() * 40.0);
         let r = scale * (0.5 + unit().abs());
-        let dir = Vec3::new(unit(), unit(), unit()).normalize_or(Vec3::X);
+        let dir = Vec3::new(unit(), unit(), unit()).unit_or(Vec3::X);
         let side = dir.any_orthonormal_vector();
         let far = libm::exp2f(unit().abs() * 16.0);
         let closest = side * r * (1.0 + k);
