@@ -10,8 +10,9 @@
 //! [`super::norm`] has those). `libm::sqrtf` on x86 is an `asm!` block of the legacy SSE
 //! instruction `sqrtss`, which the compiler copies as it is into code built for x86-64-v3, whose
 //! other instructions are AVX's: on the Intel Xeon of 2026-11-29 each such `sqrtss` among them
-//! cost so much that the tracer took 1.2 to 1.5 times as long (`docs/performance.md`,
-//! twenty-ninth round). Through `wide` the compiler picks the encoding (`vsqrtps` there).
+//! cost so much that the tracer took 1.2 to 1.5 times as long (3.1 times at worst in the
+//! profile-guided build; `docs/performance.md`, twenty-ninth round). Through `wide` the compiler
+//! picks the encoding (`vsqrtps` there).
 
 /// `libm::sqrtf` of `x`.
 #[inline(always)]

@@ -1,11 +1,10 @@
 //! The build's queue of leaves, best first: a max-queue of distinct `u128` keys that pops them in
 //! exactly the order one binary heap over all of them would.
 //!
-//! Most keys the build pushes are never popped: the build ends at its budget with most of the
-//! tree's last leaves still queued (on SPD's mount, about as many as were ever split). In one
-//! heap those keys make every pop sift through more levels of a larger array, mostly outside the
-//! processor's caches. Here the heap keeps the best keys, a few thousand, and the others wait
-//! unordered in a list:
+//! Many keys the build pushes are never popped: the build ends at its budget with the tree's
+//! last leaves still queued. In one heap those keys make every pop sift through more levels of a
+//! larger array, mostly outside the processor's caches. Here the heap keeps the best keys, a few
+//! thousand, and the others wait unordered in a list:
 //! - every key in the heap is at least `floor`, every key in the list is below it, so the
 //!   heap's top is the best key of all;
 //! - a push goes to the heap if it is at least `floor`, else to the list;
@@ -14,15 +13,16 @@
 //! - when the heap grows past twice that many, its lower half moves to the list and `floor`
 //!   rises to the least key it keeps.
 //!
-//! On SPD's mount (131,072 triangles) this cut the build's time to 0.91 to 0.94 of one heap's,
-//! together with the slot carried in the key (`build.rs`, `queue_key`); see
-//! `docs/performance.md`, twenty-ninth round.
+//! On SPD's mount_8 (131,072 triangles) this cut the build's time to 0.94 of one heap's (0.955
+//! in the profile-guided build), together with the slot carried in the key (`build.rs`,
+//! `queue_key`); see `docs/performance.md`, twenty-ninth round.
 
 use alloc::collections::BinaryHeap;
 use alloc::vec::Vec;
 
-/// The fewest keys an empty heap takes from the list at once (64 KiB of keys; the heap holds at
-/// most twice as many, within the processor's second-level cache).
+/// The fewest keys an empty heap takes from the list at once: 64 KiB of keys. The heap holds at
+/// most twice a refill, 128 KiB while the list is short, within the processor's second-level
+/// cache.
 const MIN_REFILL: usize = 4096;
 
 /// A max-queue of distinct keys (see the module's doc).
