@@ -173,7 +173,7 @@ fn take_joins(session: &mut Session<'_>, wire: &mut Links, joins: &Receiver<Link
 
 /// Ends the session with every worker left, and gives the image or why there is none.
 fn finish(
-    session: Session<'_>,
+    mut session: Session<'_>,
     mut wire: Links,
     events: &Receiver<Event>,
 ) -> Result<ClusterImage, ClusterError> {
@@ -196,15 +196,23 @@ fn finish(
     // Then read until each worker that got `EndSession` closes its end (what it still sends
     // is dropped): a socket closed while the worker's frames sit unread in it would reset
     // the connection, and the worker could lose `EndSession` and report a failed session.
+    // The time-out still holds: a worker that hung with requests in flight is lost (and
+    // cut) once it is due, not waited for to the deadline and reported `ok`.
     let mut open = finished.clone();
     while !open.is_empty() {
-        let left = deadline.saturating_duration_since(Instant::now());
+        let now = Instant::now();
+        session.time_out_silent(now, &mut wire);
+        open.retain(|&id| session.is_alive(id));
+        if open.is_empty() || now >= deadline {
+            break;
+        }
+        let left = deadline.saturating_duration_since(now).min(POLL_INTERVAL);
         match events.recv_timeout(left) {
             Ok(Event::Closed(id, _)) => {
                 open.remove(&id);
             }
-            Ok(_) => {}
-            Err(_) => break,
+            Ok(_) | Err(RecvTimeoutError::Timeout) => {}
+            Err(RecvTimeoutError::Disconnected) => break,
         }
     }
     // A writer stuck on a dead link, or a worker that does not close: cut the link so its

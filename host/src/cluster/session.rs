@@ -340,12 +340,17 @@ impl<'a> Session<'a> {
 
     /// Whether some worker is still in the session.
     pub(crate) fn any_alive(&self) -> bool {
-        self.peers.iter().any(|p| p.state != State::Gone)
+        (0..self.peers.len()).any(|id| self.is_alive(id))
     }
 
     /// The workers still in the session.
     pub(crate) fn alive(&self) -> impl Iterator<Item = usize> + '_ {
-        (0..self.peers.len()).filter(|&id| self.peers[id].state != State::Gone)
+        (0..self.peers.len()).filter(|&id| self.is_alive(id))
+    }
+
+    /// Whether worker `id` is still in the session.
+    pub(crate) fn is_alive(&self, id: usize) -> bool {
+        self.peers[id].state != State::Gone
     }
 
     /// How many workers joined.
@@ -933,27 +938,13 @@ impl<'a> Session<'a> {
     pub(crate) fn check_timeouts(&mut self, now: Instant, wire: &mut dyn Wire) {
         self.settle_unchecked(wire);
         for id in 0..self.peers.len() {
-            let peer = &self.peers[id];
-            // Only a worker the master waits on is timed out, and probed with what it last got.
-            let probe = match peer.state {
-                State::Gone => continue,
-                State::Working if peer.requests.is_empty() => continue,
-                State::Working => Probe::Fence,
-                State::Greeting => Probe::Hello,
-                State::Loading => Probe::Job,
+            let Some((stalled, probe)) = self.stall(id, now, wire) else {
+                continue;
             };
-            // While scene chunks are still going out, the worker cannot answer yet: the time
-            // counts from the last chunk written (probes do not count).
-            let since = match peer.state {
-                State::Loading => peer.last_progress.max(wire.last_chunk_write(id)),
-                _ => peer.last_progress,
-            };
-            let stalled = now.saturating_duration_since(since);
-            if stalled >= self.opts.worker_timeout {
-                let reason = format!("no answer for {:.1} s", stalled.as_secs_f64());
-                self.lose(id, reason, wire);
+            if self.time_out(id, stalled, wire) {
                 continue;
             }
+            let peer = &self.peers[id];
             if stalled < self.opts.probe_interval
                 || now.duration_since(peer.last_probe) < self.opts.probe_interval
             {
@@ -966,6 +957,47 @@ impl<'a> Session<'a> {
                 Probe::Fence => self.send_fence(id, now, wire),
             }
         }
+    }
+
+    /// After the image is complete, while the master waits for the workers to close: drops
+    /// those silent for the time-out, as during the render, but probes none (the session is
+    /// over). A worker that hung with requests in flight is reported lost, not `ok`.
+    pub(crate) fn time_out_silent(&mut self, now: Instant, wire: &mut dyn Wire) {
+        for id in 0..self.peers.len() {
+            if let Some((stalled, _)) = self.stall(id, now, wire) {
+                self.time_out(id, stalled, wire);
+            }
+        }
+    }
+
+    /// How long worker `id` has kept the master waiting, and what would ask it again; `None`
+    /// for a worker the master does not wait on (gone, or working with nothing in flight).
+    fn stall(&self, id: usize, now: Instant, wire: &dyn Wire) -> Option<(Duration, Probe)> {
+        let peer = &self.peers[id];
+        let probe = match peer.state {
+            State::Gone => return None,
+            State::Working if peer.requests.is_empty() => return None,
+            State::Working => Probe::Fence,
+            State::Greeting => Probe::Hello,
+            State::Loading => Probe::Job,
+        };
+        // While scene chunks are still going out, the worker cannot answer yet: the time
+        // counts from the last chunk written (probes do not count).
+        let since = match peer.state {
+            State::Loading => peer.last_progress.max(wire.last_chunk_write(id)),
+            _ => peer.last_progress,
+        };
+        Some((now.saturating_duration_since(since), probe))
+    }
+
+    /// Drops worker `id` if it has been `stalled` for the time-out; returns whether it did.
+    fn time_out(&mut self, id: usize, stalled: Duration, wire: &mut dyn Wire) -> bool {
+        if stalled < self.opts.worker_timeout {
+            return false;
+        }
+        let reason = format!("no answer for {:.1} s", stalled.as_secs_f64());
+        self.lose(id, reason, wire);
+        true
     }
 
     /// Sends loading workers more scene and fills working workers' windows: each may hold
@@ -1338,6 +1370,44 @@ mod tests {
         assert_eq!((w.name.as_str(), w.lines, w.reissued), ("zero", 3, 1));
         assert_eq!(w.frames_dropped, 1, "the unasked-for copy of line 2");
         assert!(image.pixels.iter().all(|p| *p == Pixel([5; 3])));
+    }
+
+    #[test]
+    fn a_worker_silent_when_the_image_completes_is_timed_out_without_probes() {
+        let job = job(2, 4, None);
+        let opts = MasterOptions::default();
+        let mut s = Session::new(&job, &opts, &|_, _| {}, &|_| {});
+        let mut wire = Recorder::default();
+        ready_worker_n(&mut s, &job, &mut wire, 0);
+        ready_worker_n(&mut s, &job, &mut wire, 1);
+        let start = Instant::now();
+        // Worker 1 answers all it is sent (at the end, copies of worker 0's lines); worker 0
+        // answers nothing.
+        for _ in 0..10 {
+            s.fill_windows(start, &mut wire);
+            for (id, m) in wire.take() {
+                if let (1, Some(y)) = (id, m.strip_prefix("RenderLine ")) {
+                    let y = y.parse().expect("a line number");
+                    s.handle(line_from(1, &job, y, false, 5), &mut wire);
+                }
+            }
+        }
+        assert!(s.is_complete());
+        assert!(s.is_alive(0) && s.is_alive(1));
+        s.time_out_silent(start + opts.worker_timeout / 2, &mut wire);
+        assert!(s.is_alive(0), "timed out early");
+        s.time_out_silent(start + opts.worker_timeout, &mut wire);
+        assert!(!s.is_alive(0), "the silent worker was not timed out");
+        assert!(
+            s.is_alive(1),
+            "the worker with nothing in flight was timed out"
+        );
+        assert_eq!(wire.cut, [0]);
+        assert!(wire.take().is_empty(), "a probe went out after the end");
+        let image = s.into_image().expect("complete");
+        let lost = image.workers[0].lost.as_deref().unwrap_or_default();
+        assert!(lost.starts_with("no answer for "), "{lost}");
+        assert!(image.workers[1].lost.is_none());
     }
 
     #[test]
