@@ -27,6 +27,7 @@ use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::scene::Scene;
+use core::cell::OnceCell;
 use glam::{Vec3, Vec4};
 
 /// How many blockers each light remembers for [`Scene::shadowed`] (two: 0.94× on gears_4
@@ -107,19 +108,26 @@ impl RayHit for PrimitiveHit {
     }
 }
 
-/// What one ray's tests share: the triangle test's frame and the slab test's reciprocal
-/// direction.
+/// What one ray's tests share: the triangle test's frame, made at the ray's first triangle
+/// test (most shadow rays of a scene of spheres and cylinders meet none), and the slab test's
+/// reciprocal direction.
 struct QueryFrame {
-    triangles: RayFrame,
+    triangles: OnceCell<RayFrame>,
     inv_dir: glam::Vec3,
 }
 
 impl QueryFrame {
     fn new(ray: &Ray) -> QueryFrame {
         QueryFrame {
-            triangles: RayFrame::new(ray),
+            triangles: OnceCell::new(),
             inv_dir: (glam::Vec3A::ONE / glam::Vec3A::from(ray.dir)).into(),
         }
+    }
+
+    /// The triangle test's frame of `ray` (the ray this frame was made for).
+    #[inline(always)]
+    fn triangles(&self, ray: &Ray) -> &RayFrame {
+        self.triangles.get_or_init(|| RayFrame::new(ray))
     }
 }
 
@@ -327,7 +335,9 @@ impl Scene {
         spans: &mut SpanScratch,
     ) -> Option<PrimitiveHit> {
         match self.triangle_points.get(i as usize) {
-            Some(p) => intersect(&frame.triangles, p, t_max).map(|h| PrimitiveHit::Triangle(i, h)),
+            Some(p) => {
+                intersect(frame.triangles(ray), p, t_max).map(|h| PrimitiveHit::Triangle(i, h))
+            }
             None => self.test_solid(frame, ray, i, t_max, spans),
         }
     }
@@ -460,7 +470,8 @@ impl Scene {
             &mut scratch.packet_stack,
         );
         let frames = per_lane(|l| QueryFrame::new(&rays[l]));
-        let frame4 = RayFrame4::new(&per_lane(|l| frames[l].triangles));
+        let triangles = per_lane(|l| RayFrame::new(&rays[l]));
+        let frame4 = RayFrame4::new(&triangles);
         let n = self.triangle_points.len() as u32;
         let axis_lanes = |v: &dyn Fn(&Ray) -> Vec3| {
             let [a, b, c, d] = rays.each_ref().map(v);
@@ -512,9 +523,7 @@ impl Scene {
                         .as_ref()
                         .map_or(asked, |f| may_hit4(f, triangle, asked));
                     for l in lanes_of(may_hit) {
-                        if let Some(h) =
-                            intersect(&frames[l].triangles, triangle, closest[l].bound())
-                        {
+                        if let Some(h) = intersect(&triangles[l], triangle, closest[l].bound()) {
                             closest[l].offer(i, PrimitiveHit::Triangle(i, h));
                         }
                     }

@@ -53,7 +53,7 @@ use crate::geom::triangle::{intersect, RayFrame, TriangleHit};
 use crate::math::aabb::Aabb;
 use crate::math::ray::Ray;
 use alloc::vec::Vec;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// The deepest octree [`OctreeParams::max_depth`] may ask for (bounds the traversal stack).
 pub const MAX_DEPTH_LIMIT: u32 = 20;
@@ -240,10 +240,17 @@ impl Octree {
 /// `a`. The build, the filing tests and the walk all cut cells with it, so theirs agree to the bit.
 #[inline]
 fn child_box(cell: &Aabb, mid: Vec3, c: usize) -> Aabb {
-    let upper = glam::BVec3::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+    // As vector selects: `Vec3::select` is a branch per component, which the walk's children
+    // made unpredictable.
+    let upper = glam::BVec3A::new(c & 1 != 0, c & 2 != 0, c & 4 != 0);
+    let (mid, min, max) = (
+        Vec3A::from(mid),
+        Vec3A::from(cell.min),
+        Vec3A::from(cell.max),
+    );
     Aabb {
-        min: Vec3::select(upper, mid, cell.min),
-        max: Vec3::select(upper, cell.max, mid),
+        min: Vec3A::select(upper, mid, min).into(),
+        max: Vec3A::select(upper, max, mid).into(),
     }
 }
 
