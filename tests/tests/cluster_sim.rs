@@ -32,10 +32,12 @@ use strahl_core::wire::{MAX_MASTER_FRAME_LEN, SCENE_WINDOW};
 use strahl_core::worker::SceneCache;
 use strahl_host::cluster::link::Link;
 use strahl_host::cluster::local::{render_local, spawn_local_workers};
-use strahl_host::cluster::master::{run_master, ClusterError, ClusterImage, MasterOptions};
+use strahl_host::cluster::master::{
+    run_master, run_master_with, ClusterError, ClusterImage, Hooks, MasterOptions,
+};
 use strahl_host::cluster::pipe::LinkModel;
 use strahl_host::cluster::prepared::PreparedScene;
-use strahl_host::cluster::report::WorkerReport;
+use strahl_host::cluster::report::{Activity, WorkerReport, WorkerState};
 use strahl_host::cluster::sim::{spawn_sim_worker, Fault, SimWorker};
 use strahl_host::formats::load::{load_config_scene, Overrides};
 
@@ -910,6 +912,60 @@ fn hung_worker_is_dropped_and_its_lines_reissued() {
     );
     assert!(steady.lost.is_none());
     assert_eq!(steady.lines, want.height - hung.lines);
+}
+
+#[test]
+fn worker_hung_when_the_image_completes_is_lost_in_the_report_and_the_last_tick() {
+    let prepared = room(64, 48);
+    let want = reference(&prepared);
+    let cache = prepared.cache();
+    // It hangs at its 3rd frame: its first result, or an answer to a repeated Hello or Job.
+    // The other worker finishes the image (copies of the hung one's lines included) long before
+    // the 1.5 s time-out, so the time-out comes while the master waits for the links to close;
+    // until 2026-11-29 the master waited its 2 s out there and reported the worker `ok`. (On a
+    // machine too slow for that, it comes during the render, with the same outcome.)
+    // A simulated hang ends when the master hangs up; a hung machine would not notice.
+    let hung = Link {
+        hang_up: Box::new(|| {}),
+        ..sim(
+            1,
+            SimWorker {
+                fault: Fault::HangAt(3),
+                ..SimWorker::default()
+            },
+            &cache,
+        )
+    };
+    let steady = sim(2, SimWorker::default(), &cache);
+    let last = Mutex::new(Vec::new());
+    let on_tick = |w: &[WorkerState]| *last.lock().expect("not poisoned") = w.to_vec();
+    let hooks = Hooks {
+        on_line: &|_, _| {},
+        log: &|_| {},
+        on_result: None,
+        on_final: None,
+        on_tick: Some(&on_tick),
+        resume: &[],
+        stop: None,
+    };
+    let opts = options(2, 1500);
+    let image = run_master_with(&prepared.job(), vec![hung, steady], None, &opts, &hooks)
+        .expect("the render completes without the hung worker");
+    assert_same_image(&image, &want, "a worker hung at the end");
+    let workers = &image.workers;
+    let lost = report(workers, "sim 1")
+        .lost
+        .as_deref()
+        .unwrap_or_else(|| panic!("the hung worker is not lost: {}", table(workers)));
+    assert!(lost.contains("no answer"), "lost for silence: {lost:?}");
+    assert!(report(workers, "sim 2").lost.is_none());
+    // The live view's last word on it agrees.
+    let last = last.lock().expect("not poisoned");
+    let shown = last
+        .iter()
+        .find(|w| w.report.address == "sim 1")
+        .expect("the last tick lists the hung worker");
+    assert_eq!(shown.activity, Activity::Lost, "{}", table(workers));
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -70,7 +70,8 @@ pub struct Hooks<'a> {
     pub on_result: Option<OnResult<'a>>,
     /// Called with each line's final pixels and the worker that delivered them: a live view.
     pub on_final: Option<OnFinal<'a>>,
-    /// Called about every [`TICK`] with each worker's state, and once at the end.
+    /// Called about every [`TICK`] with each worker's state, and once at the end (after the
+    /// workers' links are closed).
     pub on_tick: Option<OnTick<'a>>,
     /// Results of an earlier run of the same job, taken first.
     pub resume: &'a [Record],
@@ -143,10 +144,7 @@ pub fn run_master_with(
         }
     }
     let (finished, total) = session.progress();
-    if let Some(tick) = hooks.on_tick {
-        tick(&session.worker_states());
-    }
-    let image = finish(session, wire, &events);
+    let image = finish(session, wire, &events, hooks.on_tick);
     if stopped {
         return Err(ClusterError::Interrupted { finished, total });
     }
@@ -171,11 +169,14 @@ fn take_joins(session: &mut Session<'_>, wire: &mut Links, joins: &Receiver<Link
     }
 }
 
-/// Ends the session with every worker left, and gives the image or why there is none.
+/// Ends the session with every worker left, tells `on_tick` the workers' last states (a worker
+/// timed out while the master waited for the links to close is lost there too), and gives the
+/// image or why there is none.
 fn finish(
     mut session: Session<'_>,
     mut wire: Links,
     events: &Receiver<Event>,
+    on_tick: Option<OnTick<'_>>,
 ) -> Result<ClusterImage, ClusterError> {
     let live: HashSet<usize> = session.alive().collect();
     for id in 0..session.workers() {
@@ -221,6 +222,9 @@ fn finish(
         if !finished.contains(&id) || open.contains(&id) {
             wire.cut(id);
         }
+    }
+    if let Some(tick) = on_tick {
+        tick(&session.worker_states());
     }
     session.into_image()
 }
