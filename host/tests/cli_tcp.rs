@@ -262,6 +262,18 @@ fn listing(dir: &Path) -> Result<Vec<String>, Box<dyn Error>> {
     Ok(names)
 }
 
+/// The arguments of a render with no local workers, one behind `proxy` and `steady`.
+fn behind_proxy<'a>(proxy: &'a Proxy, steady: &'a str) -> [&'a str; 6] {
+    [
+        "--workers",
+        "0",
+        "--worker",
+        &proxy.address,
+        "--worker",
+        steady,
+    ]
+}
+
 #[test]
 fn three_tcp_workers_render_the_same_image_as_one_local_worker() -> TestResult {
     let (_a, a) = Proc::listening_worker("tcp-a")?;
@@ -482,18 +494,7 @@ fn cut_connection_loses_the_worker_and_the_image_is_complete() -> TestResult {
     let proxy = Proxy::start(&cut, 12_000, Fault::Cut)?;
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
-    let r = render(
-        MEDIUM,
-        &out,
-        &[
-            "--workers",
-            "0",
-            "--worker",
-            &proxy.address,
-            "--worker",
-            &steady,
-        ],
-    )?;
+    let r = render(MEDIUM, &out, &behind_proxy(&proxy, &steady))?;
     r.assert_success();
     assert!(
         proxy.tripped.load(Ordering::SeqCst),
@@ -524,14 +525,7 @@ fn hung_connection_times_out_and_the_image_is_complete() -> TestResult {
     render(LARGE, &expected, &["--workers", "1", "-m", "3", "-q"])?.assert_success();
     let out = dir.path().join("out.bmp");
     let start = Instant::now();
-    let workers = [
-        "--workers",
-        "0",
-        "--worker",
-        &proxy.address,
-        "--worker",
-        &steady,
-    ];
+    let workers = behind_proxy(&proxy, &steady);
     let r = render(
         LARGE,
         &out,
@@ -573,17 +567,12 @@ fn worker_hung_when_the_image_completes_is_still_timed_out() -> TestResult {
     let expected = dir.path().join("expected.bmp");
     render(LARGE, &expected, &["--workers", "1", "-q"])?.assert_success();
     let out = dir.path().join("out.bmp");
-    let args = [
-        "--workers",
-        "0",
-        "--worker",
-        &proxy.address,
-        "--worker",
-        &steady,
-        "--worker-timeout",
-        "1.5",
-    ];
-    let r = render(LARGE, &out, &args)?;
+    let workers = behind_proxy(&proxy, &steady);
+    let r = render(
+        LARGE,
+        &out,
+        &[&workers[..], &["--worker-timeout", "1.5"]].concat(),
+    )?;
     r.assert_success();
     assert!(
         proxy.tripped.load(Ordering::SeqCst),
