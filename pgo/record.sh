@@ -12,9 +12,16 @@
 # the SPD scenes of pgo/scenes (spheres alone and overlapping, polygons, triangle meshes,
 # cylinders and cones, reflection and refraction; made by SPD's own programs at small sizes), the
 # FART scenes (CSG, boxes, planes, transparency; one with ambient occlusion) and the
-# seed's room, with one and several samples per pixel and one and two workers. A function no
-# render calls is compiled as without a profile (the profile is sparse), but a branch never taken
-# in one they call is laid out as cold: hence renders of every kind.
+# seed's room, with one and several samples per pixel. A function no render calls is compiled as
+# without a profile (the profile is sparse), but a branch never taken in one they call is laid out
+# as cold: hence renders of every kind.
+#
+# Every render has one worker, so the tracer's counts do not depend on timing and two recordings
+# of the same code compile the same tracer. With two workers, which lines each traced (and so
+# what its remembered shadow blockers held) and how many lines the end game traced twice
+# depended on timing: two recordings of one commit compiled 18 of the core's 101 functions
+# differently (docs/performance.md, thirty-first round), and a comparison of two profile-guided
+# builds took that for the effect of a change.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd -P)"
 cd "$root"
@@ -42,14 +49,14 @@ render() {
 }
 for scene in pgo/scenes/*.nff; do
     render "$scene" -w 160 -h 160 -m 1 -d 5 --workers 1
-    render "$scene" -w 64 -h 64 -m 2 -d 5 --workers 2
+    render "$scene" -w 64 -h 64 -m 2 -d 5 --workers 1
 done
 for scene in scenes/fart/*.fart; do
     render "$scene" -w 120 -h 90 --workers 1
 done
 render scenes/fart/die.fart -w 64 -h 48 -a 2 --workers 1
 render scenes/room/raytracer.cfg -w 160 -h 120 --reflections on --workers 1
-render scenes/room/raytracer.cfg -w 160 -h 120 -m 3 --aa-threshold 0.1 --workers 2
+render scenes/room/raytracer.cfg -w 160 -h 120 -m 3 --aa-threshold 0.1 --workers 1
 "$strahl" bench --size 96 --runs 1 >/dev/null
 
 "$profdata" merge --sparse -o pgo/x86_64-unknown-linux-gnu.profdata "$raw"
