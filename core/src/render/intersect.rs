@@ -469,7 +469,6 @@ impl Scene {
             &mut scratch.work,
             &mut scratch.packet_stack,
         );
-        let frames = per_lane(|l| QueryFrame::new(&rays[l]));
         let triangles = per_lane(|l| RayFrame::new(&rays[l]));
         let frame4 = RayFrame4::new(&triangles);
         let n = self.triangle_points.len() as u32;
@@ -480,7 +479,7 @@ impl Scene {
         // For the spheres' and the reject boxes' four-ray tests; scenes of triangles alone skip
         // making them.
         let lanes = (!self.solids.is_empty()).then(|| {
-            let [a, b, c, d] = frames.each_ref().map(|f| f.inv_dir);
+            let [a, b, c, d] = per_lane(|l| QueryFrame::new(&rays[l]).inv_dir);
             (
                 axis_lanes(&|r| r.origin),
                 axis_lanes(&|r| r.dir),
