@@ -8,6 +8,7 @@
 //!   grouped tests.
 //! - [`sphere_interiors`]: per transparent lone sphere, the few primitives near it, so a ray
 //!   inside it finds its closest hit by testing those instead of walking the octree.
+//! - [`prefetch`]: a hint that a value is read soon, for reads the processor cannot foresee.
 //! - [`work`]: the counts of cells entered and primitives tested that the walks keep.
 //!
 //! The layer uses [`crate::math`] and [`crate::geom`].
@@ -15,5 +16,6 @@
 pub mod leaf_spheres;
 pub mod light_buffer;
 pub mod octree;
+pub mod prefetch;
 pub mod sphere_interiors;
 pub mod work;

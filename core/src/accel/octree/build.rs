@@ -24,6 +24,7 @@ use super::filing::{bits, ChildCells, Filing};
 use super::overlap::cell_margin;
 use super::queue::Queue;
 use super::{child_box, Node, Octree, OctreeParams, OctreeStats, INTERIOR, MAX_DEPTH_LIMIT};
+use crate::accel::prefetch::prefetch;
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
@@ -67,6 +68,11 @@ fn queue_key(priority: f32, node: usize, slot: u32) -> u128 {
 fn queue_entry(key: u128) -> (usize, usize) {
     (!((key >> 64) as u32) as usize, key as u32 as usize)
 }
+
+/// How many entries ahead of the one appraised [`Builder::split`] asks for a primitive's record
+/// ([`Filing::prefetch`]); the leaf's first ones are asked for before the loop. Measured on
+/// SPD's mount_8 and the generated scene: 8 and 16 alike, 4 about 3 % slower.
+const PREFETCH_AHEAD: usize = 8;
 
 /// Bytes of a node and of a leaf entry.
 const NODE_BYTES: usize = core::mem::size_of::<Node>();
@@ -202,6 +208,9 @@ impl Octree {
         b.add_leaf(root, 0, Refs::all(filed));
         while let Some(key) = b.queue.pop() {
             let (node, slot) = queue_entry(key);
+            if let Some(next) = b.queue.peek() {
+                b.prefetch_step(next);
+            }
             if !b.step(node, slot) {
                 break;
             }
@@ -374,6 +383,17 @@ impl Builder<'_> {
         }
     }
 
+    /// Asks for the records [`Builder::step`] reads first for the queue's entry `key`
+    /// ([`prefetch`]): while this step runs, the next one's are on their way.
+    #[inline(always)]
+    fn prefetch_step(&self, key: u128) {
+        let (node, slot) = queue_entry(key);
+        if let (Some(leaf), Some(queued)) = (self.leaves.get(node), self.queued.get(slot)) {
+            prefetch(leaf);
+            prefetch(queued);
+        }
+    }
+
     /// Takes the best queued leaf a step further: a leaf not yet appraised is appraised and
     /// queued again at its true priority (or stays a leaf if splitting would not pay); an
     /// appraised one is split. Returns false when that split would pass the budget: the build
@@ -475,7 +495,13 @@ impl Builder<'_> {
         masks.clear();
         let refs = self.leaves[node].as_ref().map_or(&[][..], Refs::get);
         let mut tally = Tally::default();
-        for &t in refs {
+        for &t in refs.iter().take(PREFETCH_AHEAD) {
+            self.filing.prefetch(t as usize);
+        }
+        for (k, &t) in refs.iter().enumerate() {
+            if let Some(&ahead) = refs.get(k + PREFETCH_AHEAD) {
+                self.filing.prefetch(ahead as usize);
+            }
             let mask = self.filing.children_touched(&cells, t as usize);
             tally.add(mask);
             masks.push(mask);

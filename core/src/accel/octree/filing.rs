@@ -23,6 +23,7 @@
 //! the test in `f64`, also for triangles that touch a child at a corner alone).
 
 use super::overlap::{segment_box_overlap, sphere_surface_box_overlap, TriangleAxes};
+use crate::accel::prefetch::prefetch;
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
@@ -139,6 +140,24 @@ impl Filing<'_> {
         match self.triangles.get(t) {
             Some(p) => self.triangle_children(cells, p),
             None => self.solid_children(cells, t - self.triangles.len()),
+        }
+    }
+
+    /// Asks for primitive `t`'s record ([`prefetch`]), which [`Filing::children_touched`]
+    /// reads.
+    #[inline(always)]
+    pub(super) fn prefetch(&self, t: usize) {
+        match self.triangles.get(t) {
+            Some(p) => {
+                // Both ends: a record of 36 bytes often spans two cache lines.
+                prefetch(&p[0]);
+                prefetch(&p[2].z);
+            }
+            None => {
+                if let Some(b) = self.reach.get(t - self.triangles.len()) {
+                    prefetch(b);
+                }
+            }
         }
     }
 

@@ -54,6 +54,12 @@ impl Queue {
         self.heap.pop()
     }
 
+    /// The greatest key in the heap, which [`Queue::pop`] takes next unless a greater one is
+    /// pushed first; `None` where the heap is empty (the next pop refills it).
+    pub(super) fn peek(&self) -> Option<u128> {
+        self.heap.peek().copied()
+    }
+
     /// How many keys an empty heap takes from the list: [`MIN_REFILL`], or an eighth of the list
     /// if that is more. A refill's selection reads the whole list, so it is paid once per eighth
     /// of the list at most, however long the list grows.
@@ -91,13 +97,14 @@ mod tests {
     use crate::accel::octree::xorshift;
 
     /// Pops and pushes mixed as the build mixes them: every pop answers what one binary heap of
-    /// the same keys would, past many spills and refills.
+    /// the same keys would, past many spills and refills, and every peek that names a key names
+    /// that heap's top.
     #[test]
     fn pops_in_the_order_one_heap_would() {
         let mut next = xorshift(0x2545_f491);
         let (mut queue, mut heap) = (Queue::default(), BinaryHeap::new());
         let mut serial = 0u128;
-        let mut most_waiting = 0;
+        let (mut most_waiting, mut peeks) = (0, 0);
         let mut key = |r: u32| {
             serial += 1;
             u128::from(r) << 32 | serial
@@ -115,6 +122,13 @@ mod tests {
                 queue.push(k);
                 heap.push(k);
             }
+            // A peek names the next pop, or nothing where the heap waits for a refill.
+            let peeked = queue.peek();
+            assert!(
+                peeked.is_none() || peeked == heap.peek().copied(),
+                "round {round}"
+            );
+            peeks += usize::from(peeked.is_some());
             assert_eq!(queue.pop(), heap.pop(), "round {round}");
             most_waiting = most_waiting.max(queue.rest.len());
         }
@@ -122,6 +136,7 @@ mod tests {
             assert_eq!(queue.pop(), Some(k));
         }
         assert_eq!(queue.pop(), None);
+        assert!(peeks > 50_000, "{peeks} of 60,000 peeks named a key");
         // The list held more than one refill's keys: the heap spilled, and refilled from it.
         assert!(
             most_waiting > MIN_REFILL,
