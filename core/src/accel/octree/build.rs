@@ -71,7 +71,7 @@ fn queue_entry(key: u128) -> (usize, usize) {
 
 /// How many entries ahead of the one appraised [`Builder::split`] asks for a primitive's record
 /// ([`Filing::prefetch`]); the leaf's first ones are asked for before the loop. Measured on
-/// SPD's mount_8 and the generated scene: 8 and 16 alike, 4 about 3 % slower.
+/// SPD's mount_8 and the generated scene: 8 and 16 alike, 4 one to three per cent slower.
 const PREFETCH_AHEAD: usize = 8;
 
 /// Bytes of a node and of a leaf entry.
