@@ -8,13 +8,16 @@
 //! - [`lanes`]: square roots, of one number or several at once, each `libm::sqrtf`'s to the
 //!   bit, in the encoding of the code around them.
 //! - [`norm`]: a vector's length and unit vector, glam's to the bit, with `lanes`' root.
+//! - [`pow`]: `x^y` for Phong's highlight, correctly rounded in practice, faster than
+//!   `libm::powf`.
 //!
-//! `float` ← `ray` ← `aabb`; `float` ← `transform`; `lanes` ← `norm`. Nothing here knows about
+//! `float` ← `ray` ← `aabb`; `float` ← `transform`; `lanes` ← `norm`; `pow` stands alone. Nothing here knows about
 //! scenes.
 
 pub mod aabb;
 pub mod float;
 pub mod lanes;
 pub mod norm;
+pub mod pow;
 pub mod ray;
 pub mod transform;

@@ -314,7 +314,7 @@ fn local_color(
         let r_dot_v = r.dot(view);
         // No highlight without a specular colour (the product would be zero anyway).
         let spec = if r_dot_v > 0.0 && highlight_matters(sh) {
-            libm::powf(r_dot_v, sh.shininess)
+            crate::math::pow::powf(r_dot_v, sh.shininess)
         } else {
             0.0
         };
