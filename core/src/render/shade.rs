@@ -125,6 +125,18 @@ struct Pending {
 }
 
 impl Pending {
+    /// A primary ray: the whole pixel's share, outside every medium.
+    fn primary(ray: Ray) -> Pending {
+        Pending {
+            ray,
+            leaving: None,
+            weight: 1.0,
+            depth: 0,
+            media: Media::OUTSIDE,
+            inside: None,
+        }
+    }
+
     /// The ray's closest hit: from the sphere it starts inside where that answers, else the
     /// walk's.
     fn closest_hit(&self, scene: &Scene, query: &mut QueryScratch) -> Option<PrimitiveHit> {
@@ -378,10 +390,16 @@ pub(crate) fn trace4(
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
     scratch.prepare(scene);
+    let primaries = per_lane(|l| samples[l].0);
+    let no_leaving = [None; LANES];
+    let hits = scene.closest_hits4(&primaries, f32::INFINITY, no_leaving, &mut scratch.query);
     let mut trees = per_lane(|l| {
         let pending = core::mem::take(&mut scratch.packet[l]);
-        RayTree::start(samples[l].0, samples[l].1, pending)
+        RayTree::empty(samples[l].1, pending)
     });
+    for ((tree, hit), ray) in trees.iter_mut().zip(hits).zip(primaries) {
+        tree.follow_ray(scene, &Pending::primary(ray), hit, scratch, counts);
+    }
     while let [Some(a), Some(b), Some(c), Some(d)] = per_lane(|l| trees[l].pending.last()) {
         let rays = [a.ray, b.ray, c.ray, d.ray];
         let leaving = [a.leaving, b.leaving, c.leaving, d.leaving];
@@ -418,16 +436,16 @@ struct RayTree {
 
 impl RayTree {
     /// The tree of `primary`, in the (cleared) buffer `pending`.
-    fn start(primary: Ray, seed: u32, mut pending: Vec<Pending>) -> RayTree {
+    fn start(primary: Ray, seed: u32, pending: Vec<Pending>) -> RayTree {
+        let mut tree = RayTree::empty(seed, pending);
+        tree.pending.push(Pending::primary(primary));
+        tree
+    }
+
+    /// A tree with no ray yet, in the (cleared) buffer `pending`: its primary ray is followed by
+    /// the caller ([`RayTree::follow_ray`]).
+    fn empty(seed: u32, mut pending: Vec<Pending>) -> RayTree {
         pending.clear();
-        pending.push(Pending {
-            ray: primary,
-            leaving: None,
-            weight: 1.0,
-            depth: 0,
-            media: Media::OUTSIDE,
-            inside: None,
-        });
         RayTree {
             color: Vec3::ZERO,
             pending,
@@ -459,8 +477,21 @@ impl RayTree {
         scratch: &mut TraceScratch,
         counts: &mut RayCounts,
     ) {
+        if let Some(p) = self.pending.pop() {
+            self.follow_ray(scene, &p, hit, scratch, counts);
+        }
+    }
+
+    /// Follows `p`, whose closest hit is `hit`, as [`RayTree::follow`] does the next ray.
+    fn follow_ray(
+        &mut self,
+        scene: &Scene,
+        p: &Pending,
+        hit: Option<PrimitiveHit>,
+        scratch: &mut TraceScratch,
+        counts: &mut RayCounts,
+    ) {
         let settings = &scene.settings;
-        let Some(p) = self.pending.pop() else { return };
         let Some(hit) = hit else {
             self.color += settings.background * p.weight;
             return;
@@ -469,7 +500,7 @@ impl RayTree {
         let s = surface(scene, &p.ray, &hit);
         let view = -p.ray.dir.unit();
         let d = -view;
-        let split = split(scene, &s, d, &p);
+        let split = split(scene, &s, d, p);
         let naive = !settings.skip_effects;
         if split.local_share > 0.0 || naive {
             let blockers = &mut scratch.blockers;
@@ -481,9 +512,9 @@ impl RayTree {
         }
         self.bounce += 1;
         if naive {
-            trace_dropped_branches(scene, &s, d, &p, &split, spans, counts);
+            trace_dropped_branches(scene, &s, d, p, &split, spans, counts);
         }
-        push_branches(&s, d, &p, split, &mut self.pending, counts);
+        push_branches(&s, d, p, split, &mut self.pending, counts);
     }
 }
 
