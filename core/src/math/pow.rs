@@ -99,6 +99,8 @@ pub fn powf(x: f32, y: f32) -> f32 {
     let bits = x.to_bits();
     // Positive normal `x` only (sign bit clear, exponent neither 0 nor all ones).
     if !(0x0080_0000..0x7f80_0000).contains(&bits) || !y.is_finite() {
+        // The special cases (`core/clippy.toml` sends every other power here).
+        #[allow(clippy::disallowed_methods)]
         return libm::powf(x, y);
     }
     let z = f64::from(y) * log2(bits);
@@ -146,6 +148,8 @@ fn exp2(z: f64) -> f64 {
 }
 
 #[cfg(test)]
+// The tests compare with `libm::powf`, which the core's code may not call (`core/clippy.toml`).
+#[allow(clippy::disallowed_methods)]
 mod tests {
     use super::*;
 
