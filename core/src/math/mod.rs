@@ -11,8 +11,8 @@
 //! - [`pow`]: `x^y` for Phong's highlight, correctly rounded in practice, faster than
 //!   `libm::powf`.
 //!
-//! `float` ← `ray` ← `aabb`; `float` ← `transform`; `lanes` ← `norm`; `pow` stands alone. Nothing here knows about
-//! scenes.
+//! `float` ← `ray` ← `aabb`; `float` ← `transform`; `lanes` ← `norm`; `pow` stands alone.
+//! Nothing here knows about scenes.
 
 pub mod aabb;
 pub mod float;
