@@ -1,12 +1,14 @@
-//! `x^y` for Phong's highlight: `libm::powf`'s job, three times as fast and more exact.
+//! `x^y` for Phong's highlight: `libm::powf`'s job, five times as fast and more exact.
 //!
 //! `libm::powf` is FreeBSD's `e_powf`, written in `f32` with float pairs: on this tracer's
 //! inputs (`x` in `(0, 1]`, a shader's exponent) about one result in ten is one unit in the last
 //! place off the correctly rounded one, and its long chain of dependent steps (a division among
 //! them) cost about a tenth of the tracing on a scene of shiny triangles. [`powf`] follows the
-//! method of ARM's optimized-routines (which glibc and musl use): `log2 x` from a table of 32
-//! subintervals and a short series, times `y`, then `2^z` from a table of 32 fractions and a
-//! short series, all in `f64`, rounded once to `f32`. Its error before that rounding is about
+//! method of ARM's optimized-routines (which glibc and musl use): `log2 x` from a table of 128
+//! subintervals and a series to the sixth power, times `y`, then `2^z` from a table of 128
+//! fractions and a series to the fifth power, all in `f64`, rounded once to `f32`. The series
+//! are summed in pairs and no step divides, so the chain of dependent steps is short (the
+//! tracer waits on it once per light and hit). Its error before that rounding is about
 //! 2⁻⁴⁴ of the result at most, so the rounded result is the correctly rounded `x^y` except where
 //! `x^y` lies that close to a midpoint between two floats (none among the tests' 1.8 million
 //! highlight inputs). `docs/accuracy.md` records what the change did to images.
@@ -14,16 +16,17 @@
 //! Only basic `f64` operations are used, in a fixed order and without fused multiply-adds, so the
 //! result is the same bits on every machine (on a microcontroller without a double-precision unit
 //! the operations are done in software: slower there, the same answer). The tables are
-//! computed by the compiler from their definitions ([`LOG2_CENTRE`], [`EXP2_FRACTION`]); the
-//! tests compare them with `libm`.
+//! computed by the compiler from their definitions ([`LOG2_CENTRE`], [`EXP2_FRACTION`], and
+//! the series' coefficients [`LOG2_SERIES`], [`EXP2_SERIES`]); the tests compare them with
+//! `libm`.
 //!
 //! Arguments outside the fast path (`x` zero, negative, subnormal, infinite or NaN; `y` infinite
 //! or NaN) go to `libm::powf`, which knows every special case of C's `powf`.
 
 use core::f64::consts::LN_2;
 
-/// Bits of the table index: the tables have `1 << TABLE_BITS` entries.
-const TABLE_BITS: u32 = 5;
+/// Bits of the table index: the tables have `1 << TABLE_BITS` entries (1 KiB each).
+const TABLE_BITS: u32 = 7;
 const N: usize = 1 << TABLE_BITS;
 
 /// The centre of the `i`-th of `N` equal subintervals of `[1, 2)`.
@@ -90,6 +93,30 @@ const EXP2_FRACTION: [f64; N] = {
     t
 };
 
+/// The series of `log2(1 + r)`: coefficient `k − 1` is that of `r^k`, `(−1)^(k+1) / (k ln 2)`.
+const LOG2_SERIES: [f64; 6] = {
+    let mut c = [0.0; 6];
+    let mut k = 1;
+    while k <= 6 {
+        let sign = if k % 2 == 1 { 1.0 } else { -1.0 };
+        c[k - 1] = sign / (k as f64 * LN_2);
+        k += 1;
+    }
+    c
+};
+
+/// The series of `2^(g / N)`: coefficient `k − 1` is that of `g^k`, `(ln 2 / N)^k / k!`.
+const EXP2_SERIES: [f64; 5] = {
+    let mut c = [0.0; 5];
+    let (mut term, mut k) = (1.0, 1);
+    while k <= 5 {
+        term = term * (LN_2 / N as f64) / k as f64;
+        c[k - 1] = term;
+        k += 1;
+    }
+    c
+};
+
 /// Adding it rounds a number below 2⁵¹ in magnitude to an integer held in the low bits.
 const ROUND_SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 · 2⁵²
 
@@ -103,12 +130,14 @@ pub fn powf(x: f32, y: f32) -> f32 {
         #[allow(clippy::disallowed_methods)]
         return libm::powf(x, y);
     }
-    let z = f64::from(y) * log2(bits);
+    // `z = y · log2 x`, times `N` for `exp2`: the factor `N` joins `y` off the chain of dependent
+    // steps, and being a power of two it changes no bit of the product.
+    let z = f64::from(y) * N as f64 * log2(bits);
     // 2^z rounds to 0 below 2⁻¹⁵⁰ and overflows above 2¹²⁸.
-    if z < -151.0 {
+    if z < -151.0 * N as f64 {
         return 0.0;
     }
-    if z > 129.0 {
+    if z > 129.0 * N as f64 {
         return f32::INFINITY;
     }
     exp2(z) as f32
@@ -121,30 +150,32 @@ fn log2(bits: u32) -> f64 {
     let i = (bits >> (23 - TABLE_BITS)) as usize & (N - 1);
     // The significand in [1, 2), exactly.
     let m = f64::from_bits((u64::from(bits & 0x007f_ffff) << 29) | 0x3ff0_0000_0000_0000);
-    // m = centre(i) · (1 + r) with |r| < 1/64.
+    // m = centre(i) · (1 + r) with |r| < 1/256.
     let r = m * INVERSE_CENTRE[i] - 1.0;
     let r2 = r * r;
-    // ln(1 + r) to r⁸ (the first term left out is below 2⁻⁵⁷), in pairs to shorten the chain.
-    let low = r * (1.0 - 0.5 * r) + r2 * r * (1.0 / 3.0 - 0.25 * r);
-    let high = r2 * r2 * r * ((0.2 - r / 6.0) + r2 * (1.0 / 7.0 - 0.125 * r));
-    f64::from(exponent) + LOG2_CENTRE[i] + (low + high) / LN_2
+    // log2(1 + r) to r⁶ (the first term left out is below 2⁻⁵⁸), in pairs to shorten the chain.
+    let c = &LOG2_SERIES;
+    let pairs = (c[0] + c[1] * r) + r2 * ((c[2] + c[3] * r) + r2 * (c[4] + c[5] * r));
+    f64::from(exponent) + LOG2_CENTRE[i] + r * pairs
 }
 
-/// `2^z` for `z` in `[-151, 129]`, within about 2⁻⁵⁰ of itself.
+/// `2^(z / N)` for `z / N` in `[-151, 129]`, within about 2⁻⁵⁰ of itself.
 #[inline]
 fn exp2(z: f64) -> f64 {
-    // z = n / N + g with n an integer and |g| <= 1/(2N); n / N and the subtraction are exact.
-    let shifted = z * N as f64 + ROUND_SHIFT;
+    // z = n + g with n an integer and |g| <= 1/2; the subtraction is exact.
+    let shifted = z + ROUND_SHIFT;
     let n = shifted.to_bits() as i32;
-    let g = z - (shifted - ROUND_SHIFT) / N as f64;
-    let t = g * LN_2;
-    let t2 = t * t;
-    // e^t to t⁶ (|t| < 0.011: the first term left out is below 2⁻⁵⁸).
-    let e_t = (1.0 + t) + t2 * (0.5 + t / 6.0) + t2 * t2 * ((1.0 / 24.0 + t / 120.0) + t2 / 720.0);
-    // 2^(n / N) = 2^(n >> TABLE_BITS) · 2^((n mod N) / N); the first is a power of two in the
-    // normal range for every n this function is given.
-    let whole = f64::from_bits((((n >> TABLE_BITS) + 1023) as u64) << 52);
-    EXP2_FRACTION[n as usize & (N - 1)] * e_t * whole
+    let g = z - (shifted - ROUND_SHIFT);
+    let g2 = g * g;
+    // 2^(g / N) to g⁵ (|g / N| ≤ 1/256: the first term left out is below 2⁻⁶⁰), in pairs.
+    let c = &EXP2_SERIES;
+    let series = (1.0 + c[0] * g) + g2 * ((c[1] + c[2] * g) + g2 * (c[3] + c[4] * g));
+    // 2^(n / N) = 2^(n >> TABLE_BITS) · 2^((n mod N) / N): the first, a power of two that keeps
+    // the product normal for every n this function is given, is added to the table entry's
+    // exponent, which multiplies by it exactly.
+    let fraction = EXP2_FRACTION[n as usize & (N - 1)].to_bits();
+    let scale = f64::from_bits(fraction.wrapping_add(((n >> TABLE_BITS) as i64 as u64) << 52));
+    scale * series
 }
 
 #[cfg(test)]
@@ -159,7 +190,8 @@ mod tests {
         libm::pow(f64::from(x), f64::from(y)) as f32
     }
 
-    /// The tables agree with `libm` to within four units in the last place (2⁻⁵⁰).
+    /// The tables and the series' coefficients agree with `libm` to within four units in the
+    /// last place (2⁻⁵⁰).
     #[test]
     fn tables_match_libm() {
         let close = |a: f64, b: f64| (a.to_bits() as i64 - b.to_bits() as i64).abs() <= 4;
@@ -168,6 +200,19 @@ mod tests {
             assert!(close(LOG2_CENTRE[i], libm::log2(centre(i))), "log2 {i}");
             let f = i as f64 / N as f64;
             assert!(close(EXP2_FRACTION[i], libm::exp2(f)), "exp2 {i}");
+        }
+        for (k, &c) in (1..).zip(&LOG2_SERIES) {
+            let sign = if k % 2 == 1 { 1.0 } else { -1.0 };
+            assert!(
+                close(c, sign / (k as f64 * libm::log(2.0))),
+                "log2 series {k}"
+            );
+        }
+        let mut factorial = 1.0;
+        for (k, &c) in (1..).zip(&EXP2_SERIES) {
+            factorial *= k as f64;
+            let term = libm::pow(libm::log(2.0) / N as f64, k as f64) / factorial;
+            assert!(close(c, term), "exp2 series {k}");
         }
     }
 
