@@ -44,6 +44,9 @@ pub const GROUP: usize = 16;
 pub struct Closest<H> {
     best: Option<(u32, H)>,
     bound: f32,
+    /// [`Closest::cutoff`], kept with the hit: the walks ask for it at every leaf, hits come
+    /// seldom.
+    cutoff: f32,
 }
 
 impl<H: RayHit> Closest<H> {
@@ -53,6 +56,7 @@ impl<H: RayHit> Closest<H> {
         Closest {
             best: None,
             bound: t_max,
+            cutoff: f32::INFINITY,
         }
     }
 
@@ -70,6 +74,7 @@ impl<H: RayHit> Closest<H> {
         if closer(h.t(), index, &self.best) {
             self.best = Some((index, h));
             self.bound = self.bound.min(h.t() * (1.0 + 4.0 * MACHINE_EPSILON));
+            self.cutoff = h.t() + h.t_error();
         }
     }
 
@@ -77,10 +82,7 @@ impl<H: RayHit> Closest<H> {
     /// cannot hold a closer one.
     #[inline]
     pub fn cutoff(&self) -> f32 {
-        match &self.best {
-            Some((_, b)) => b.t() + b.t_error(),
-            None => f32::INFINITY,
-        }
+        self.cutoff
     }
 
     /// The closest hit, with its primitive's index.
