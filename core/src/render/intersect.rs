@@ -469,6 +469,10 @@ impl Scene {
             &mut scratch.work,
             &mut scratch.packet_stack,
         );
+        if self.octree.missed_by4(rays, t_max) {
+            // No set-up for tests no ray will make.
+            return per_lane(|l| self.closest_unbounded(&rays[l], t_max, None, spans, work));
+        }
         let triangles = per_lane(|l| RayFrame::new(&rays[l]));
         let frame4 = RayFrame4::new(&triangles);
         let n = self.triangle_points.len() as u32;

@@ -44,6 +44,11 @@ fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
             },
         )
     });
+    if tree.missed_by4(rays, f32::INFINITY) {
+        // Said to meet nothing: the walk found nothing and entered no cell.
+        assert_eq!(four.map(|h| h.is_some()), [false; LANES], "{rays:?}");
+        assert_eq!(work.octree_cells, 0, "{rays:?}");
+    }
     let mut hits = 0;
     for (l, ray) in rays.iter().enumerate() {
         let alone = tree.closest_hit(tris, ray, f32::INFINITY);
@@ -105,7 +110,8 @@ fn closed_sphere_packets() {
 
 /// Packets that pass the tree by, all four rays or some of them: rays aimed at points beside
 /// the triangles' bounds (the background around a model) find nothing, as walked alone, and
-/// their neighbours still find their hits.
+/// their neighbours still find their hits. Packets [`Octree::missed_by4`] says pass it by
+/// find nothing and enter no cell (`check`).
 #[test]
 fn packets_beside_the_tree() {
     let tris = random_soup(400, &mut Rng::new(6));
@@ -113,7 +119,7 @@ fn packets_beside_the_tree() {
     let (lo, hi) = bounds(&tris);
     let ext = hi - lo;
     let mut rng = Rng::new(25);
-    let (mut hits, mut blank) = (0, 0);
+    let (mut hits, mut blank, mut passed_by) = (0, 0, 0);
     for i in 0..6_000 {
         let eye = lo - ext + ext * 3.0 * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
         let inside = lo + ext * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
@@ -133,8 +139,14 @@ fn packets_beside_the_tree() {
         let found = check(&tree, &tris, &rays);
         hits += found;
         blank += usize::from(i % 2 == 0 && found == 0);
+        passed_by += usize::from(tree.missed_by4(&rays, f32::INFINITY));
     }
     assert!(blank > 1_000, "only {blank} packets met nothing");
+    // Rays beside the bounds mostly miss the root cell too: those need no walk at all.
+    assert!(
+        passed_by > 500,
+        "only {passed_by} packets said to pass the tree by"
+    );
     assert!(hits > 1_000, "too few hits ({hits}) to mean anything");
 }
 

@@ -190,6 +190,18 @@ impl Octree {
         per_lane(|l| closest[l].best())
     }
 
+    /// True if none of `rays` enters the tree's root cell within `t_max` and no primitive is set
+    /// apart from the tree: [`Octree::closest_hits4`] would find no hit for any of them (by the
+    /// root test of both its walks), so a caller can skip preparing its tests. Four background
+    /// pixels, mostly; a ray that enters ends the check.
+    pub fn missed_by4(&self, rays: &[Ray; LANES], t_max: f32) -> bool {
+        self.large.is_empty()
+            && rays.iter().all(|ray| {
+                let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir));
+                self.root.intersect(ray, inv_dir, t_max).is_none()
+            })
+    }
+
     /// Visits the non-empty leaves the packet's rays cross, nearest leaves first for each ray:
     /// `leaf(lanes, indices)` gets the rays that enter the leaf (bit `l` for ray `l`) and returns
     /// every ray's cut-off (cells a ray enters beyond its own are skipped). Returns the cells
