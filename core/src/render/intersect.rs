@@ -16,7 +16,9 @@
 //! [`QueryWork`].
 
 use crate::accel::light_buffer::Candidates;
-use crate::accel::octree::{lanes_of, per_lane, GroupBlocks, GroupTests, PacketStack, LANES};
+use crate::accel::octree::{
+    lanes_of, per_lane, walk_together, GroupBlocks, GroupTests, PacketStack, LANES,
+};
 use crate::accel::work::QueryWork;
 use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::hit::{closer, Closest, RayHit};
@@ -461,7 +463,9 @@ impl Scene {
         leaving: [Option<u32>; LANES],
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
-        if self.group_spheres {
+        if self.group_spheres || !walk_together(rays) {
+            // Rays that part (mirror rays off spheres, mostly) go one at a time, without the
+            // four rays' set-up for the tests; where spheres are tested in groups, all do.
             return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
         }
         let (spans, work, stack) = (

@@ -43,7 +43,7 @@ mod overlap;
 mod packet;
 mod queue;
 mod region;
-pub use packet::{lanes_of, per_lane, PacketStack, LANES};
+pub use packet::{lanes_of, per_lane, walk_together, PacketStack, LANES};
 mod traverse;
 pub use crate::geom::hit::GROUP;
 pub use traverse::{GroupBlocks, GroupTests};

@@ -88,12 +88,7 @@ struct Packet<'a> {
 impl<'a> Packet<'a> {
     /// The packet, or `None` if the rays do not all go the same way along every axis.
     fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
-        let flip = signs(rays[0].dir)?;
-        for r in &rays[1..] {
-            if signs(r.dir)? != flip {
-                return None;
-            }
-        }
+        let flip = shared_signs(rays)?;
         // One vector division per ray, as the one-ray walk computes it.
         let inv_dir = per_lane(|l| Vec3::from(Vec3A::ONE / Vec3A::from(rays[l].dir)));
         let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(3));
@@ -105,6 +100,23 @@ impl<'a> Packet<'a> {
             flip,
         })
     }
+}
+
+/// True if the four rays go the same way along every axis (no zero component): the rays
+/// [`Octree::closest_hits4`] walks together; others it walks one at a time.
+pub fn walk_together(rays: &[Ray; LANES]) -> bool {
+    shared_signs(rays).is_some()
+}
+
+/// The rays' [`signs`] if they are the same for all four.
+fn shared_signs(rays: &[Ray; LANES]) -> Option<usize> {
+    let flip = signs(rays[0].dir)?;
+    for r in &rays[1..] {
+        if signs(r.dir)? != flip {
+            return None;
+        }
+    }
+    Some(flip)
 }
 
 /// Bit `a` set where `d` is negative along axis `a`; `None` if a component is zero or NaN.
