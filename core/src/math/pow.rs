@@ -133,7 +133,7 @@ pub fn powf(x: f32, y: f32) -> f32 {
     // `z = y · log2 x`, times `N` for `exp2`: the factor `N` joins `y` off the chain of dependent
     // steps, and being a power of two it changes no bit of the product.
     let z = f64::from(y) * N as f64 * log2(bits);
-    // 2^z rounds to 0 below 2⁻¹⁵⁰ and overflows above 2¹²⁸.
+    // 2^(z / N) rounds to 0 below 2⁻¹⁵⁰ and overflows above 2¹²⁸.
     if z < -151.0 * N as f64 {
         return 0.0;
     }

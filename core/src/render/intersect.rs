@@ -451,11 +451,13 @@ impl Scene {
     /// The closest hits of four rays with `0 < t < t_max`, each what [`Scene::closest_hit`]
     /// returns for it. Neighbouring camera rays walk the octree together
     /// ([`Octree::closest_hits4`](crate::accel::octree::Octree::closest_hits4)); where lone
-    /// spheres are tested in groups, the rays go one at a time. `leaving[l]` is the triangle
-    /// ray `l` leaves, if it leaves one (its origin moved off that triangle's plane by
-    /// [`LeavingOrigins`](crate::math::ray::LeavingOrigins), towards its direction): the ray
-    /// cannot meet it again, as [`Scene::shadowed`] says, so where the four rays walk together
-    /// it is not tested.
+    /// spheres are tested in groups, or the four rays do not go the same way along every axis
+    /// ([`walk_together`]), the rays go one at a time, and where all four miss the tree
+    /// ([`Octree::missed_by4`](crate::accel::octree::Octree::missed_by4)) none walks.
+    /// `leaving[l]` is the triangle ray `l` leaves, if it leaves one (its origin moved off that
+    /// triangle's plane by [`LeavingOrigins`](crate::math::ray::LeavingOrigins), towards its
+    /// direction): the ray cannot meet it again, as [`Scene::shadowed`] says, so where the four
+    /// rays walk together it is not tested.
     pub fn closest_hits4(
         &self,
         rays: &[Ray; LANES],
