@@ -23,13 +23,15 @@
 //! how many centre planes it has crossed, and these are popped in that order. Camera rays of
 //! neighbouring pixels almost always qualify; other packets are walked one ray at a time.
 
-use super::traverse::{next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
+use super::traverse::{
+    inv_dir, next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN,
+};
 use super::{Node, Octree};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{Closest, RayHit};
 use crate::math::ray::Ray;
 use alloc::vec::Vec;
-use glam::{BVec4A, Vec3, Vec3A, Vec4};
+use glam::{BVec4A, Vec3, Vec4};
 
 /// Rays per packet.
 pub const LANES: usize = 4;
@@ -90,7 +92,7 @@ impl<'a> Packet<'a> {
     fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
         let flip = shared_signs(rays)?;
         // One vector division per ray, as the one-ray walk computes it.
-        let inv_dir = per_lane(|l| Vec3::from(Vec3A::ONE / Vec3A::from(rays[l].dir)));
+        let inv_dir = per_lane(|l| inv_dir(&rays[l]));
         let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(3));
         Some(Packet {
             rays,
@@ -208,10 +210,9 @@ impl Octree {
     /// pixels, mostly; a ray that enters ends the check.
     pub fn missed_by4(&self, rays: &[Ray; LANES], t_max: f32) -> bool {
         self.large.is_empty()
-            && rays.iter().all(|ray| {
-                let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir));
-                self.root.intersect(ray, inv_dir, t_max).is_none()
-            })
+            && rays
+                .iter()
+                .all(|ray| self.root.intersect(ray, inv_dir(ray), t_max).is_none())
     }
 
     /// Visits the non-empty leaves the packet's rays cross, nearest leaves first for each ray:

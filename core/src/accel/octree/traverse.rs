@@ -445,8 +445,7 @@ impl Octree {
         t_max: f32,
         mut leaf: impl FnMut(u32, &[u32]) -> f32,
     ) -> u64 {
-        // One vector division for the three lanes: each lane is the scalar quotient.
-        let inv_dir = Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir));
+        let inv_dir = inv_dir(ray);
         let Some((t0, t1)) = self.root.intersect(ray, inv_dir, t_max) else {
             return 0;
         };
@@ -486,6 +485,14 @@ impl Octree {
         }
         cells
     }
+}
+
+/// The reciprocal of `ray`'s direction, as every walk takes it for its slab tests (the root's
+/// included, so [`Octree::missed_by4`] answers as the walks do): one vector division for the
+/// three lanes, each lane the scalar quotient.
+#[inline(always)]
+pub(super) fn inv_dir(ray: &Ray) -> Vec3 {
+    Vec3::from(Vec3A::ONE / Vec3A::from(ray.dir))
 }
 
 /// The cell to enter next: `next`, the nearest child of the cell entered last, if it was
