@@ -97,6 +97,47 @@ fn nff_primitives_of_every_kind() {
     assert!(together > 600, "only {together} packets walked together");
 }
 
+/// Objects floating in the middle of the view, background all around: packets whose four rays
+/// miss everything (`Scene::missed_by4`) are coloured without a walk, as each ray alone colours
+/// its pixel, in scenes whose spheres are tested one at a time and in groups.
+#[test]
+fn packets_that_miss_everything() {
+    for crowd in [0u32, 400] {
+        let mut s = String::from(
+            "b 0.2 0.4 0.7\nv\nfrom 0 -12 3\nat 0 0 0.5\nup 0 0 1\nangle 50\nhither 0.01\n\
+             resolution 64 48\nl 8 -6 12\nf 0.9 0.6 0.3 0.6 0.3 20 0.2 1.3\n\
+             s 0 0 0.5 0.5\ns 0 1.5 2.5 0.3\nc\n2.5 1 0 0.3\n2.5 1 1.5 0.05\n\
+             p 3\n-3 -1 0\n-2 -1 0\n-2.5 -1 1.2\n",
+        );
+        for k in 0..crowd {
+            let f = |m: u32| (k * m % 97) as f32 / 97.0 - 0.5;
+            let r = 0.3 + f(13) * 0.4;
+            writeln!(s, "s {} {} {} {r}", f(31), f(57), 1.0 + f(71)).expect("write");
+        }
+        let dir = tempfile::tempdir().expect("temp dir");
+        let path = dir.path().join("floating.nff");
+        std::fs::write(&path, s).expect("write scene");
+        let loaded = load_scene(&path, &overrides(64, 48)).expect("scene loads");
+        let scene = build(&loaded.desc);
+        assert_eq!(scene.group_spheres, crowd > 0, "{crowd} spheres");
+        compare(&scene);
+        let missed = (0..48)
+            .flat_map(|y| (0..16).map(move |k| (y, k)))
+            .filter(|&(y, k)| {
+                let rays = std::array::from_fn(|l| {
+                    let x = (k * LANES + l) as f32 + 0.5;
+                    scene.camera.ray(x, y as f32 + 0.5)
+                });
+                scene.missed_by4(&rays, f32::INFINITY)
+            })
+            .count();
+        assert!(
+            (100..16 * 48).contains(&missed),
+            "{missed} packets of 768 miss everything"
+        );
+    }
+}
+
 /// Hundreds of spheres crowded into one spot: leaves too large to split, whose spheres the
 /// queries test in groups (there the rays go one at a time).
 #[test]

@@ -385,15 +385,23 @@ pub fn trace(
 /// [`trace`] for four samples (primary ray and occlusion seed: neighbouring pixels', or four of
 /// one pixel's), each the colour it gives alone. The four rays find their closest hits together
 /// ([`Scene::closest_hits4`]), and so do the next rays of the four ray trees while each has one
-/// (a mirror or refracted ray, mostly); the rest are followed one at a time.
+/// (a mirror or refracted ray, mostly); the rest are followed one at a time. Four primary rays
+/// that miss everything ([`Scene::missed_by4`]) give the background without any tree.
 pub(crate) fn trace4(
     scene: &Scene,
     samples: [(Ray, u32); LANES],
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
-    scratch.prepare(scene);
     let primaries = per_lane(|l| samples[l].0);
+    if scene.missed_by4(&primaries, f32::INFINITY) {
+        // Four background samples (most of some scenes' pixels): what each tree would gather,
+        // its colour (zero) plus its primary ray's miss, without making the trees.
+        let mut color = Vec3::ZERO;
+        color += missed(scene, 1.0);
+        return [color; LANES];
+    }
+    scratch.prepare(scene);
     let no_leaving = [None; LANES];
     let hits = scene.closest_hits4(&primaries, f32::INFINITY, no_leaving, &mut scratch.query);
     let mut trees = per_lane(|l| {
@@ -496,7 +504,7 @@ impl RayTree {
     ) {
         let settings = &scene.settings;
         let Some(hit) = hit else {
-            self.color += settings.background * p.weight;
+            self.color += missed(scene, p.weight);
             return;
         };
         let spans = &mut scratch.query;
@@ -553,6 +561,13 @@ fn split(scene: &Scene, s: &Surface, d: Vec3, p: &Pending) -> Split {
         refract_share,
         local_share,
     }
+}
+
+/// What a ray carrying `weight` of its sample adds to the sample's colour where it hits nothing:
+/// its share of the background.
+#[inline]
+fn missed(scene: &Scene, weight: f32) -> Vec3 {
+    scene.settings.background * weight
 }
 
 /// `--skip-effects off`: the mirror and refraction rays [`split`] left out, traced once and their
