@@ -360,14 +360,6 @@ impl Scene {
             .map(|h| PrimitiveHit::Solid(j, h))
     }
 
-    /// True if none of `rays` meets any primitive within `t_max`: all four miss the octree's
-    /// root cell and no solid is unbounded, so [`Scene::closest_hit`] and
-    /// [`Scene::closest_hits4`] find nothing for any of them, and count no work.
-    #[inline]
-    pub fn missed_by4(&self, rays: &[Ray; LANES], t_max: f32) -> bool {
-        self.unbounded.is_empty() && self.octree.missed_by4(rays, t_max)
-    }
-
     /// The closest hit of `ray` with `0 < t < t_max` over all primitives.
     pub fn closest_hit(
         &self,

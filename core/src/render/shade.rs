@@ -386,7 +386,7 @@ pub fn trace(
 /// one pixel's), each the colour it gives alone. The four rays find their closest hits together
 /// ([`Scene::closest_hits4`]), and so do the next rays of the four ray trees while each has one
 /// (a mirror or refracted ray, mostly); the rest are followed one at a time. Four primary rays
-/// that miss everything ([`Scene::missed_by4`]) give the background without any tree.
+/// that hit nothing give the background without any tree.
 pub(crate) fn trace4(
     scene: &Scene,
     samples: [(Ray, u32); LANES],
@@ -394,7 +394,10 @@ pub(crate) fn trace4(
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
     let primaries = per_lane(|l| samples[l].0);
-    if scene.missed_by4(&primaries, f32::INFINITY) {
+    let no_leaving = [None; LANES];
+    let hits = scene.closest_hits4(&primaries, f32::INFINITY, no_leaving, &mut scratch.query);
+    counts.work += core::mem::take(&mut scratch.query.work);
+    if hits == [None; LANES] {
         // Four background samples (most of some scenes' pixels): what each tree would gather,
         // its colour (zero) plus its primary ray's miss, without making the trees.
         let mut color = Vec3::ZERO;
@@ -402,8 +405,6 @@ pub(crate) fn trace4(
         return [color; LANES];
     }
     scratch.prepare(scene);
-    let no_leaving = [None; LANES];
-    let hits = scene.closest_hits4(&primaries, f32::INFINITY, no_leaving, &mut scratch.query);
     let mut trees = per_lane(|l| {
         let pending = core::mem::take(&mut scratch.packet[l]);
         RayTree::empty(samples[l].1, pending)
