@@ -69,18 +69,13 @@ pub struct Scene {
     /// their groups (empty otherwise).
     pub leaf_spheres: LeafSpheres,
     /// Per light, the primitives by direction that its shadow rays test instead of walking the
-    /// octree (see [`LightBuffer`]); `None` for a light without shadow rays, in a scene of
-    /// fewer than [`LIGHT_BUFFER_MIN`] primitives, where the memory given does not allow it
-    /// ([`Scene::build_within`]), or where the buffer would not pay.
+    /// octree (see [`LightBuffer`]); `None` for a light without shadow rays, where the memory
+    /// given does not allow it ([`Scene::build_within`]), or where the buffer would not pay.
     pub light_buffers: Vec<Option<LightBuffer>>,
     /// The transparent lone spheres whose inside rays test a few primitives instead of walking
     /// the octree ([`Scene::closest_hit_inside`]).
     pub sphere_interiors: SphereInteriors,
 }
-
-/// Scenes with fewer primitives than this walk the octree for every shadow ray: the walk is
-/// short, and a buffer per light would only take memory (a board's, say).
-pub const LIGHT_BUFFER_MIN: usize = 64;
 
 impl Scene {
     /// Validates `desc`, computes smooth vertex normals and builds the octree with `params` and
@@ -200,12 +195,12 @@ struct Filed<'a> {
 
 /// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
 /// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
-/// the settings ask for them) in scenes of [`LIGHT_BUFFER_MIN`] primitives or more, while
-/// [`light_buffer_peak`] fits in what is left of `memory`.
+/// the settings ask for them), while [`light_buffer_peak`] fits in what is left of `memory`.
+/// Small scenes get them too: SPD's rings_1 (62 primitives) traced in 0.79 of the time with
+/// them, balls_1 (12) in 0.90 (`docs/performance.md`, thirty-eighth round).
 fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option<LightBuffer>> {
-    let primitives = filed.triangles.len() + filed.extents.len();
     let peak = light_buffer_peak(filed.triangles.len(), filed.extents.len());
-    if primitives < LIGHT_BUFFER_MIN || peak > memory {
+    if peak > memory {
         return desc.lights.iter().map(|_| None).collect();
     }
     desc.lights

@@ -134,6 +134,55 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
     );
 }
 
+/// A scene of a few primitives (SPD's balls_1 has twelve: ten spheres and a floor's two
+/// triangles) gets a buffer for its light too, and the buffer answers as the walk does.
+#[test]
+fn a_small_scene_has_a_light_buffer_that_answers_as_the_walk() {
+    let mut rng = Rng::new(47);
+    let mut desc = lit(Vec3::new(4.0, 6.0, 5.0));
+    for _ in 0..10 {
+        let sphere = Shape::Sphere {
+            radius: rng.range(0.1, 0.6),
+        };
+        add_solid(
+            &mut desc,
+            sphere,
+            Transform::translate(point(&mut rng, 1.5)),
+        );
+    }
+    let floor = [-3.0, 3.0].map(|x| Vec3::new(x, -2.0, -3.0));
+    let far = [3.0, -3.0].map(|x| Vec3::new(x, -2.0, 3.0));
+    add_triangles(
+        &mut desc,
+        &[[floor[0], floor[1], far[0]], [floor[0], far[0], far[1]]],
+    );
+    let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+    let Some(buffer) = scene.light_buffers[0].as_ref() else {
+        panic!("a scene of 12 primitives gets a light buffer");
+    };
+    let light = scene.lights[0].position;
+    let mut scratch = QueryScratch::default();
+    let (mut listed, mut blocked, mut free) = (0, 0, 0);
+    for k in 0..5_000 {
+        let origin = point(&mut rng, 2.5);
+        let ray = Ray::new(origin, light - origin);
+        let want = scene.any_hit(&ray, 1.0, &mut scratch);
+        let mut memory = ShadowMemory::default();
+        let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(0), &mut memory, None));
+        assert_eq!(got, want, "ray {k}: {ray:?}");
+        if buffer.candidates(&ray, 1.0) != Candidates::Walk {
+            listed += 1;
+            blocked += usize::from(want);
+            free += usize::from(!want);
+        }
+    }
+    assert!(listed > 4_000, "{listed} rays answered from the buffer");
+    assert!(
+        blocked > 300 && free > 300,
+        "{blocked} blocked, {free} free"
+    );
+}
+
 #[test]
 fn light_buffers_save_the_walk() {
     let mut rng = Rng::new(43);
