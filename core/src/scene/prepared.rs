@@ -196,8 +196,8 @@ struct Filed<'a> {
 /// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
 /// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
 /// the settings ask for them), while [`light_buffer_peak`] fits in what is left of `memory`.
-/// Small scenes get them too: SPD's rings_1 (62 primitives) traced in 0.79 of the time with
-/// them, balls_1 (12) in 0.90 (`docs/performance.md`, thirty-eighth round).
+/// Small scenes get them too: SPD's rings_1 (62 primitives) traced in 0.78 of the time with
+/// them, balls_1 (12) in 0.86 (`docs/performance.md`, thirty-eighth round).
 fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option<LightBuffer>> {
     let peak = light_buffer_peak(filed.triangles.len(), filed.extents.len());
     if peak > memory {
