@@ -5,7 +5,7 @@
 //! light in a floor's plane, one far away and one inside a closed mesh.
 
 use glam::Vec3;
-use strahl_core::accel::light_buffer::Candidates;
+use strahl_core::accel::light_buffer::{Candidates, LightBuffer};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::{offset_ray_origin, Ray};
@@ -73,6 +73,40 @@ fn scene(rng: &mut Rng) -> (Scene, Vec<[Vec3; 3]>) {
     (scene, soup)
 }
 
+/// Shadow rays a buffer answered from a list, and how many of those were blocked and free.
+#[derive(Default)]
+struct Listed {
+    listed: usize,
+    blocked: usize,
+    free: usize,
+}
+
+impl Listed {
+    /// Counts `ray` if `buffer` answers it from a list; `blocked` is the walk's answer.
+    fn count(&mut self, buffer: Option<&LightBuffer>, ray: &Ray, blocked: bool) {
+        if buffer.is_some_and(|b| b.candidates(ray, 1.0) != Candidates::Walk) {
+            self.listed += 1;
+            self.blocked += usize::from(blocked);
+            self.free += usize::from(!blocked);
+        }
+    }
+
+    /// Asserts that over `listed` rays were answered from a list, over `each` of them blocked
+    /// and over `each` free.
+    fn assert_over(&self, listed: usize, each: usize) {
+        let Listed {
+            listed: n,
+            blocked,
+            free,
+        } = *self;
+        assert!(n > listed, "{n} rays answered from a buffer");
+        assert!(
+            blocked > each && free > each,
+            "{blocked} blocked, {free} free"
+        );
+    }
+}
+
 #[test]
 fn shadowed_by_a_light_buffer_answers_as_the_walk() {
     let mut rng = Rng::new(41);
@@ -84,7 +118,7 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
     assert!((0..4).all(|l| scene.light_buffers[l].is_some()));
     assert!(scene.light_buffers[4].is_none());
     let mut scratch = QueryScratch::default();
-    let (mut listed, mut blocked, mut free) = (0, 0, 0);
+    let mut listed = Listed::default();
     let mut caches = vec![ShadowMemory::default(); lights];
     for k in 0..40_000usize {
         let l = k % lights;
@@ -119,19 +153,10 @@ fn shadowed_by_a_light_buffer_answers_as_the_walk() {
         let remembered =
             scene.shadowed(&ray, 1.0, &mut scratch, (Some(l), &mut caches[l], leaving));
         assert_eq!(remembered, want, "ray {k} to light {l}, remembering");
-        let buffer = scene.light_buffers[l].as_ref();
-        if buffer.is_some_and(|b| b.candidates(&ray, 1.0) != Candidates::Walk) {
-            listed += 1;
-            blocked += usize::from(want);
-            free += usize::from(!want);
-        }
+        listed.count(scene.light_buffers[l].as_ref(), &ray, want);
     }
     // Most rays are answered from the buffers, both ways.
-    assert!(listed > 20_000, "{listed} rays answered from a buffer");
-    assert!(
-        blocked > 2000 && free > 2000,
-        "{blocked} blocked, {free} free"
-    );
+    listed.assert_over(20_000, 2000);
 }
 
 /// A scene of a few primitives (SPD's balls_1 has twelve: ten spheres and a floor's two
@@ -157,12 +182,14 @@ fn a_small_scene_has_a_light_buffer_that_answers_as_the_walk() {
         &[[floor[0], floor[1], far[0]], [floor[0], far[0], far[1]]],
     );
     let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
-    let Some(buffer) = scene.light_buffers[0].as_ref() else {
-        panic!("a scene of 12 primitives gets a light buffer");
-    };
+    let buffer = scene.light_buffers[0].as_ref();
+    assert!(
+        buffer.is_some(),
+        "a scene of 12 primitives gets a light buffer"
+    );
     let light = scene.lights[0].position;
     let mut scratch = QueryScratch::default();
-    let (mut listed, mut blocked, mut free) = (0, 0, 0);
+    let mut listed = Listed::default();
     for k in 0..5_000 {
         let origin = point(&mut rng, 2.5);
         let ray = Ray::new(origin, light - origin);
@@ -170,17 +197,9 @@ fn a_small_scene_has_a_light_buffer_that_answers_as_the_walk() {
         let mut memory = ShadowMemory::default();
         let got = scene.shadowed(&ray, 1.0, &mut scratch, (Some(0), &mut memory, None));
         assert_eq!(got, want, "ray {k}: {ray:?}");
-        if buffer.candidates(&ray, 1.0) != Candidates::Walk {
-            listed += 1;
-            blocked += usize::from(want);
-            free += usize::from(!want);
-        }
+        listed.count(buffer, &ray, want);
     }
-    assert!(listed > 4_000, "{listed} rays answered from the buffer");
-    assert!(
-        blocked > 300 && free > 300,
-        "{blocked} blocked, {free} free"
-    );
+    listed.assert_over(4_000, 300);
 }
 
 #[test]
