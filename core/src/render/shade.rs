@@ -399,7 +399,8 @@ pub(crate) fn trace4(
     counts.work += core::mem::take(&mut scratch.query.work);
     if hits == [None; LANES] {
         // Four background samples (most of some scenes' pixels): what each tree would gather,
-        // its colour (zero) plus its primary ray's miss, without making the trees.
+        // its colour (zero) plus its primary ray's miss, without making the trees. Summed as a
+        // tree sums it, so a −0 background channel gives +0 here too.
         let mut color = Vec3::ZERO;
         color += missed(scene, 1.0);
         return [color; LANES];
