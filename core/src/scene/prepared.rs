@@ -9,7 +9,7 @@ use super::error::SceneError;
 use super::model::{Light, SceneDesc, Shader};
 use super::settings::RenderSettings;
 use crate::accel::leaf_spheres::LeafSpheres;
-use crate::accel::light_buffer::LightBuffer;
+use crate::accel::light_buffer::{LightBuffer, SIZED_FOR};
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
 use crate::accel::sphere_interiors::SphereInteriors;
 use crate::geom::axis_planes::AxisPlanes;
@@ -179,11 +179,12 @@ impl Scene {
 }
 
 /// The most memory one light's buffer may take while it is built, what it keeps included, in a
-/// scene of `triangles` triangles and `objects` solid objects: [`LightBuffer::peak_bytes`] and
-/// the solids' boxes. [`Scene::build_within`] builds a light's buffer only where this fits.
-pub fn light_buffer_peak(triangles: usize, objects: usize) -> u64 {
+/// scene of `triangles` triangles and `objects` solid objects, sized for `least` primitives at
+/// least ([`SIZED_FOR`]): [`LightBuffer::peak_bytes`] and the solids' boxes.
+/// [`Scene::build_within`] builds a light's buffer only where this fits.
+pub fn light_buffer_peak(triangles: usize, objects: usize, least: usize) -> u64 {
     let boxes = objects * core::mem::size_of::<Option<Aabb>>();
-    LightBuffer::peak_bytes(triangles + objects) + boxes as u64
+    LightBuffer::peak_bytes(triangles + objects, least) + boxes as u64
 }
 
 /// What the lights' buffers file: the triangles and the solids' extents, within `bounds`.
@@ -195,14 +196,19 @@ struct Filed<'a> {
 
 /// Each light's [`LightBuffer`] over the triangles and the solids' reach boxes (where a solid's
 /// test can report a hit), for lights whose shadow rays are traced (the light casts shadows and
-/// the settings ask for them), while [`light_buffer_peak`] fits in what is left of `memory`.
+/// the settings ask for them), while [`light_buffer_peak`] fits in what is left of `memory`,
+/// all sized for the first of [`SIZED_FOR`] whose peak fits `memory`.
 /// Small scenes get them too: SPD's rings_1 (62 primitives) traced in 0.78 of the time with
 /// them, balls_1 (12) in 0.86 (`docs/performance.md`, thirty-eighth round).
 fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option<LightBuffer>> {
-    let peak = light_buffer_peak(filed.triangles.len(), filed.extents.len());
-    if peak > memory {
+    let (triangles, objects) = (filed.triangles.len(), filed.extents.len());
+    let Some((least, peak)) = SIZED_FOR
+        .iter()
+        .map(|&least| (least, light_buffer_peak(triangles, objects, least)))
+        .find(|&(_, peak)| peak <= memory)
+    else {
         return desc.lights.iter().map(|_| None).collect();
-    }
+    };
     desc.lights
         .iter()
         .map(|light| {
@@ -214,6 +220,7 @@ fn light_buffers(desc: &SceneDesc, filed: &Filed, mut memory: u64) -> Vec<Option
                         &filed.bounds,
                         filed.triangles,
                         filed.extents,
+                        least,
                     )
                 })
                 .flatten();

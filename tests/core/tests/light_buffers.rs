@@ -5,7 +5,7 @@
 //! light in a floor's plane, one far away and one inside a closed mesh.
 
 use glam::Vec3;
-use strahl_core::accel::light_buffer::{Candidates, LightBuffer};
+use strahl_core::accel::light_buffer::{Candidates, LightBuffer, SIZED_FOR};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::geom::solid::Shape;
 use strahl_core::math::ray::{offset_ray_origin, Ray};
@@ -297,7 +297,8 @@ fn light_buffers_answer_as_the_walk_at_every_scale() {
 }
 
 /// A node with little memory (a board's heap) builds buffers only where the most their build
-/// can take fits in what the scene leaves, one light after the other.
+/// can take fits in what the scene leaves, one light after the other, sized as finely as that
+/// memory allows.
 #[test]
 fn light_buffers_stay_within_the_memory_given() {
     let (desc, _) = desc(&mut Rng::new(53));
@@ -312,16 +313,33 @@ fn light_buffers_stay_within_the_memory_given() {
     };
     let all = built(u64::MAX);
     assert_eq!(all, [true, true, true, true, false], "light 4 casts none");
-    let peak = light_buffer_peak(desc.triangles.len(), desc.objects.len());
+    let peak = |least| light_buffer_peak(desc.triangles.len(), desc.objects.len(), least);
+    let [fine, coarse] = SIZED_FOR.map(peak);
+    assert!(
+        coarse < fine,
+        "{coarse} bytes sized coarsely, {fine} finely"
+    );
     assert_eq!(built(0), [false; 5]);
-    assert_eq!(built(peak - 1), [false; 5]);
-    // Enough for one: the first light's buffer leaves less than the next one may need.
-    assert_eq!(built(peak), [true, false, false, false, false]);
+    assert_eq!(built(coarse - 1), [false; 5]);
     let scene = Scene::build(&desc, &params).expect("valid scene");
     let first = scene.light_buffers[0].as_ref().expect("a buffer").bytes();
+    let within = |memory| Scene::build_within(&desc, &params, memory).expect("valid scene");
+    let coarsely = within(coarse);
+    let first_coarse = coarsely.light_buffers[0]
+        .as_ref()
+        .expect("a buffer")
+        .bytes();
+    // Enough for one: the first light's buffer leaves less than the next one may need.
+    assert_eq!(built(coarse), [true, false, false, false, false]);
+    assert_eq!(built(fine), [true, false, false, false, false]);
     assert!(
-        first < peak,
-        "{first} bytes kept, {peak} at most while building"
+        first < fine && first_coarse < coarse && first_coarse < first,
+        "{first} bytes kept of {fine} at most, {first_coarse} of {coarse} sized coarsely"
     );
-    assert_eq!(built(peak + first), [true, true, false, false, false]);
+    assert_eq!(
+        within(fine).light_buffers[0].as_ref().map(|b| b.bytes()),
+        Some(first),
+        "memory for the fine peak gets the fine buffer"
+    );
+    assert_eq!(built(fine + first), [true, true, false, false, false]);
 }

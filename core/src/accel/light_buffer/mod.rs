@@ -31,7 +31,7 @@
 //!
 //! Where a cell lists more than [`CELL_LIMIT`] primitives it may be split: gridded again,
 //! finer, over that cell alone (the `split` module), where its primitives are small against
-//! it. A query in a crowded cell that is not split, or in a sub-cell still over the limit,
+//! it; in a small scene, so may a cell listing fewer but many. A query in a crowded cell that is not split, or in a sub-cell still over the limit,
 //! says [`Candidates::Walk`]. A light gets no buffer where over a third of its occupied cells
 //! are over the limit (primitives crowd around it, and the walk is as short as a list), or
 //! where the buffer would outgrow its budget even with coarse cells.
@@ -53,7 +53,7 @@ use split::Splits;
 pub const CELL_LIMIT: usize = 64;
 
 /// Cells per primitive projected onto a face (before the budget shrinks them), or per primitive
-/// a small scene's buffer is sized for ([`MIN_PRIMITIVES`]).
+/// a small scene's buffer is sized for ([`SIZED_FOR`]).
 const CELLS_PER_PRIMITIVE: f32 = 8.0;
 
 /// How many grids the build may try, halving the cells per primitive each time to fit its
@@ -63,15 +63,18 @@ const COARSER: usize = 12;
 /// The most cells along one side of a face.
 const MAX_SIDE: u32 = 1024;
 
-/// A buffer's cells and kept entries are sized as for at least this many primitives, as the
-/// octree gets at least 64 KiB (`MIN_BUDGET` in its build): about 64 KiB of entries per light.
-/// A small scene's buffer was as coarse as its few primitives allowed (SPD's balls_2, 92
-/// primitives: 736 cells over six faces, 3.6 tests per shadow ray).
-const MIN_PRIMITIVES: usize = 1024;
+/// The fewest primitives a buffer's cells and kept entries are sized for, finest first: a scene
+/// gets the first whose [`LightBuffer::peak_bytes`] fits the memory it is given (a host: 4,096;
+/// a board's heap: 1,024 where that fits). A small scene's buffer was as coarse as its few
+/// primitives allowed (SPD's balls_2, 92 primitives: 736 cells over six faces, 3.6 tests per
+/// shadow ray); sized as for 4,096 instead of 1,024, with its long cells split
+/// ([`split::SPLIT_FROM`]), tree_5 traced in 0.86 of the time, tree_8, teapot_4 and teapot_6
+/// in 0.96 to 0.99 (`docs/performance.md`, thirty-ninth round).
+pub const SIZED_FOR: [usize; 2] = [4096, 1024];
 
-/// The number of primitives a buffer over `primitives` is sized for ([`MIN_PRIMITIVES`]).
-fn sized_for(primitives: usize) -> usize {
-    primitives.max(MIN_PRIMITIVES)
+/// The number of primitives a buffer over `primitives` is sized for, `least` at least.
+fn sized_for(primitives: usize, least: usize) -> usize {
+    primitives.max(least)
 }
 
 /// How many entries a buffer may keep per primitive, above one per cell.
@@ -205,7 +208,8 @@ impl LightBuffer {
     /// `triangles.len()`: each by its reach box, [`SolidExtent::reach`], a slanted lone cylinder
     /// or cone by the hull of the cubes around its caps' centres grown by its radius) around the
     /// light at `light`, for queries from points within `bounds`
-    /// (the box around every bounded primitive) or twice as far. `None` where there is nothing to
+    /// (the box around every bounded primitive) or twice as far, its cells and budgets sized
+    /// for `least` primitives at least ([`SIZED_FOR`]). `None` where there is nothing to
     /// file, a coordinate overflows, most occupied cells would be over [`CELL_LIMIT`], or the
     /// buffer would exceed its budget even at a coarse resolution.
     pub fn build(
@@ -213,6 +217,7 @@ impl LightBuffer {
         bounds: &Aabb,
         triangles: &[[Vec3; 3]],
         solids: &[SolidExtent],
+        least: usize,
     ) -> Option<LightBuffer> {
         if bounds.is_empty() || triangles.len() + solids.len() >= SPLIT as usize {
             return None;
@@ -228,7 +233,7 @@ impl LightBuffer {
         }
         let shapes = Shapes { triangles, solids };
         let footprints = shapes.footprints(light, guard);
-        let sized = sized_for(shapes.len());
+        let sized = sized_for(shapes.len(), least);
         let (kept_budget, filed_budget) = (KEPT * sized, FILED * shapes.len());
         let mut density = CELLS_PER_PRIMITIVE * sized as f32 / shapes.len() as f32;
         for _ in 0..COARSER {
@@ -245,7 +250,8 @@ impl LightBuffer {
                 }
                 let kept: usize = counts.iter().map(|&n| kept_in(n) as usize).sum();
                 if kept <= kept_budget + cells {
-                    let splits = split::plan(&faces, &footprints, &counts, shapes.len());
+                    let long = shapes.len() < sized;
+                    let splits = split::plan(&faces, &footprints, &counts, (sized, long));
                     let mut buffer = LightBuffer {
                         light,
                         reach,
@@ -270,11 +276,19 @@ impl LightBuffer {
     /// [`SPLIT`] mark, another cell or sub-cell over [`CELL_LIMIT`] only the [`WALK`] mark.
     fn fill(&mut self, footprints: &[Vec<(u32, Footprint)>; 6], counts: Vec<u32>, splits: Splits) {
         let cells = counts.len();
+        let mut is_split = vec![false; cells];
+        for &cell in &splits.cells {
+            is_split[cell as usize] = true;
+        }
         let mut starts = Vec::with_capacity(cells + splits.counts.len() + 1);
         let mut start = 0u32;
-        for &n in counts.iter().chain(&splits.counts) {
+        for (k, &n) in counts.iter().chain(&splits.counts).enumerate() {
             starts.push(start);
-            start += kept_in(n);
+            start += if k < cells && is_split[k] {
+                1
+            } else {
+                kept_in(n)
+            };
         }
         starts.push(start);
         let mark = |index| Entry {
@@ -295,7 +309,9 @@ impl LightBuffer {
             }
         };
         each_cell(&self.faces, footprints, |cell, index, print| {
-            file(cell, counts[cell], index, print)
+            if !is_split[cell] {
+                file(cell, counts[cell], index, print)
+            }
         });
         splits.each_sub_cell(&self.faces, footprints, &counts, |sub, index, print| {
             file(cells + sub, splits.counts[sub], index, print)
@@ -375,19 +391,20 @@ impl LightBuffer {
     }
 
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
-    /// primitives, what it keeps included: every primitive's footprints on all six faces (in
-    /// vectors of at most twice their length, or 4); the cells (at most
-    /// [`CELLS_PER_PRIMITIVE`] per primitive sized for, [`MIN_PRIMITIVES`] at least, plus the
+    /// primitives sized for `least` at least, what it keeps included: every primitive's
+    /// footprints on all six faces (in vectors of at most twice their length, or 4); the cells
+    /// (at most
+    /// [`CELLS_PER_PRIMITIVE`] per primitive sized for, `least` at least, plus the
     /// rounding up of [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells,
     /// each counted, started and filled in `u32` arrays, with the list of crowded cells and a
     /// second count of the sub-cells; the split cells, their grids and their filed entries,
     /// twice; and the kept entries within their budgets.
-    pub fn peak_bytes(primitives: usize) -> u64 {
+    pub fn peak_bytes(primitives: usize, least: usize) -> u64 {
         let n = primitives as u64;
-        let sized = sized_for(primitives) as u64;
+        let sized = sized_for(primitives, least) as u64;
         let footprints = 6 * (2 * n + 4) * size_of::<(u32, Footprint)>() as u64;
         let cells = 6 * (CELLS_PER_PRIMITIVE as u64 * sized + 2 * u64::from(MAX_SIDE) + 1);
-        let splits = Splits::most(primitives) as u64;
+        let splits = Splits::most(sized as usize) as u64;
         let sub_cells = splits * split::CELLS as u64;
         let kept = 2 * KEPT as u64 * sized + cells + sub_cells;
         let split_cells =
@@ -776,8 +793,10 @@ mod tests {
                 &[],
                 &solids.iter().map(SolidExtent::bounds).collect::<Vec<_>>(),
             );
-            let buffer = LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer");
-            let by_boxes = LightBuffer::build(light, &bounds, &[], &boxes).expect("a buffer");
+            let buffer =
+                LightBuffer::build(light, &bounds, &[], &solids, SIZED_FOR[0]).expect("a buffer");
+            let by_boxes =
+                LightBuffer::build(light, &bounds, &[], &boxes, SIZED_FOR[0]).expect("a buffer");
             for k in 0..20_000 {
                 // A point on a cone's side or cap, and a shadow ray from just beyond it.
                 let (j, (_, [a, b], [r0, r1])) = (k % cones.len(), cones[k % cones.len()]);
@@ -870,7 +889,8 @@ mod tests {
                 .iter()
                 .map(|b| b.map_or(SolidExtent::Unbounded, SolidExtent::Box))
                 .collect();
-            let buffer = LightBuffer::build(light, &bounds, &tris, &solids).expect("a buffer");
+            let buffer =
+                LightBuffer::build(light, &bounds, &tris, &solids, SIZED_FOR[0]).expect("a buffer");
             // Through every corner, seen from the light: among them the corners that bound
             // the grids, where only the margins keep a ray's rounded direction inside.
             for (i, v) in tris.iter().enumerate().flat_map(|(i, t)| t.map(|v| (i, v))) {
@@ -952,7 +972,8 @@ mod tests {
         let spot = Vec3::new(0.5, 0.0, 0.5);
         tris.extend((0..200).map(|_| [0; 3].map(|_| spot + point(&mut rng, 0.01))));
         let bounds = bounds_of(&tris, &[]);
-        let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
+        let buffer =
+            LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[0]).expect("a buffer");
         let o = Vec3::new(0.2, -1.0, 0.3);
         assert!(listed(buffer.candidates(&Ray::new(o, light - o), 1.0)).is_some());
         // Not towards this light; a longer ray; from beyond its reach; from the light.
@@ -986,10 +1007,13 @@ mod tests {
         let mut rng = Rng::new(9);
         let tris = scatter(&mut rng, 2000, 1.0, 0.8);
         let bounds = bounds_of(&tris, &[]);
-        assert_eq!(LightBuffer::build(Vec3::ZERO, &bounds, &tris, &[]), None);
+        assert_eq!(
+            LightBuffer::build(Vec3::ZERO, &bounds, &tris, &[], SIZED_FOR[0]),
+            None
+        );
     }
 
-    /// A scene of few primitives is gridded as one of [`MIN_PRIMITIVES`] (a halving for the
+    /// A scene of few primitives is gridded as one of [`SIZED_FOR`] (a halving for the
     /// budget allowed), not by its own count: 60 triangles got 480 cells at most before.
     #[test]
     fn a_small_scene_is_gridded_as_a_larger_one() {
@@ -997,22 +1021,23 @@ mod tests {
         let light = Vec3::new(0.0, 0.0, -8.0);
         let tris = scatter(&mut rng, 60, 2.0, 0.1);
         let bounds = bounds_of(&tris, &[]);
-        let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
+        let buffer =
+            LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[0]).expect("a buffer");
         let (cells, entries) = buffer.size();
         let own = CELLS_PER_PRIMITIVE as usize * tris.len();
-        let floor = CELLS_PER_PRIMITIVE as usize * MIN_PRIMITIVES / 2;
+        let floor = CELLS_PER_PRIMITIVE as usize * SIZED_FOR[0] / 2;
         assert!(
             cells >= floor && cells > 4 * own,
             "{cells} cells, {entries} entries"
         );
-        assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len()));
+        assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len(), SIZED_FOR[0]));
     }
 
     /// The buffer of `light` over `boxes` (solids by their boxes).
     fn box_buffer(light: Vec3, boxes: &[Aabb]) -> LightBuffer {
         let solids: Vec<SolidExtent> = boxes.iter().map(|&b| SolidExtent::Box(b)).collect();
         let bounds = bounds_of(&[], &boxes.iter().map(|&b| Some(b)).collect::<Vec<_>>());
-        LightBuffer::build(light, &bounds, &[], &solids).expect("a buffer")
+        LightBuffer::build(light, &bounds, &[], &solids, SIZED_FOR[0]).expect("a buffer")
     }
 
     /// Whether the buffer answers the shadow ray from `origin` (not a walk); panics where it
@@ -1144,7 +1169,8 @@ mod tests {
         let light = Vec3::new(0.0, 0.0, -8.0);
         let tris = scatter(&mut rng, 500, 2.0, 0.3);
         let bounds = bounds_of(&tris, &[]);
-        let buffer = LightBuffer::build(light, &bounds, &tris, &[]).expect("a buffer");
+        let buffer =
+            LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[0]).expect("a buffer");
         let (cells, entries) = buffer.size();
         assert!(
             cells > 100 && entries > cells / 2,
