@@ -252,6 +252,7 @@ mod tests {
     use super::super::{LightBuffer, SIZED_FOR};
     use crate::math::ray::Ray;
     use crate::scene::mesh::Rng;
+    use alloc::vec::Vec;
     use glam::Vec3;
 
     #[test]
@@ -307,49 +308,53 @@ mod tests {
     }
 
     /// A face cell of more than [`SPLIT_FROM`] small primitives, though within the limit, is
-    /// split too: queries through it test a few, not all of them.
+    /// split too: queries through it test a few, not all of them. Eight such cells in a scene
+    /// of 252 primitives: the splits' budget counts the 4,096 primitives the buffer is sized
+    /// for (its own count would allow four).
     #[test]
     fn long_cells_of_small_primitives_are_split_and_answer() {
         let mut rng = Rng::new(31);
         let light = Vec3::new(0.0, 6.0, 0.0);
-        let mut tris = scatter(&mut rng, 300, 3.0, 0.05);
+        let mut tris = scatter(&mut rng, 60, 3.0, 0.05);
         // The face below the light (depth along −y, `u` = z, `v` = x), gridded as for the
-        // spread alone; a patch of 40 tiny triangles at depth 6 inside one of its cells.
+        // spread alone; patches of 24 small triangles at depth 6, each inside one cell.
         let bounds = bounds_of(&tris, &[]);
         let alone = LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[0]).expect("a buffer");
         let grid = alone.faces[3].expect("a face below the light");
         let size = grid.scale.map(|s| 6.0 / s);
-        let centre = [-0.3f32, 0.4].map(|w| w / 6.0);
-        let [u, v] = [0, 1].map(|a| {
-            let k = grid.cell(a, centre[a]) as f32 + 0.5;
-            6.0 * (grid.lo[a] + k / grid.scale[a])
-        });
-        let in_patch = |rng: &mut Rng| {
+        let first = [0, 1].map(|a| grid.cell(a, [-0.3f32, 0.4][a] / 6.0));
+        let centres: Vec<Vec3> = (0..8u32)
+            .map(|k| {
+                let cell = [first[0] + 2 * (k % 4), first[1] + 2 * (k / 4)];
+                let [u, v] =
+                    [0, 1].map(|a| 6.0 * (grid.lo[a] + (cell[a] as f32 + 0.5) / grid.scale[a]));
+                Vec3::new(v, 0.0, u)
+            })
+            .collect();
+        let in_patch = |rng: &mut Rng, centre: Vec3| {
             let (z, x) = (0.4 * size[0], 0.4 * size[1]);
-            Vec3::new(
-                v + rng.range(-x, x),
-                rng.range(-0.01, 0.01),
-                u + rng.range(-z, z),
-            )
+            centre + Vec3::new(rng.range(-x, x), rng.range(-0.01, 0.01), rng.range(-z, z))
         };
-        let tiny = 0.08 * size[0].min(size[1]);
-        for _ in 0..40 {
-            let c = in_patch(&mut rng);
-            tris.push([0; 3].map(|_| c + point(&mut rng, tiny)));
+        let small = 0.1 * size[0].min(size[1]);
+        for &centre in &centres {
+            for _ in 0..24 {
+                let c = in_patch(&mut rng, centre);
+                tris.push([0; 3].map(|_| c + point(&mut rng, small)));
+            }
         }
         let bounds = bounds_of(&tris, &[]);
         let buffer =
             LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[0]).expect("a buffer");
         assert_eq!(
             buffer.faces[3], alone.faces[3],
-            "the patch changed the face's grid"
+            "the patches changed the grid"
         );
-        assert!(!buffer.splits.is_empty(), "the patch's cell is split");
+        assert!(buffer.splits.len() >= 8, "{} splits", buffer.splits.len());
         assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len(), SIZED_FOR[0]));
         let (mut answered, mut blockers, mut listed_total) = (0, 0, 0);
         let queries = 4000;
-        for _ in 0..queries {
-            let through = in_patch(&mut rng);
+        for q in 0..queries {
+            let through = in_patch(&mut rng, centres[q % centres.len()]);
             let origin = light + (through - light) * rng.range(1.01, 1.5);
             let ray = Ray::new(origin, light - origin);
             let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
@@ -361,7 +366,7 @@ mod tests {
         }
         assert_eq!(answered, queries, "every query is answered from a list");
         assert!(blockers > 300, "{blockers} blockers checked");
-        // Unsplit, each query would list the patch's 40.
+        // Unsplit, each query would list its patch's 24.
         assert!(
             listed_total < 8 * answered,
             "{listed_total} listed in {answered}"
