@@ -274,21 +274,23 @@ impl LightBuffer {
     /// Files every footprint in its cells (`counts` per cell) and the split cells' sub-cells,
     /// and sorts each cell nearest first (ties by index). A split cell keeps only its
     /// [`SPLIT`] mark, another cell or sub-cell over [`CELL_LIMIT`] only the [`WALK`] mark.
-    fn fill(&mut self, footprints: &[Vec<(u32, Footprint)>; 6], counts: Vec<u32>, splits: Splits) {
+    fn fill(
+        &mut self,
+        footprints: &[Vec<(u32, Footprint)>; 6],
+        mut counts: Vec<u32>,
+        splits: Splits,
+    ) {
         let cells = counts.len();
-        let mut is_split = vec![false; cells];
+        // A split cell keeps one entry and files none, as a crowded one: a long one (within
+        // the limit) counts as crowded from here on.
         for &cell in &splits.cells {
-            is_split[cell as usize] = true;
+            counts[cell as usize] = u32::MAX;
         }
         let mut starts = Vec::with_capacity(cells + splits.counts.len() + 1);
         let mut start = 0u32;
-        for (k, &n) in counts.iter().chain(&splits.counts).enumerate() {
+        for &n in counts.iter().chain(&splits.counts) {
             starts.push(start);
-            start += if k < cells && is_split[k] {
-                1
-            } else {
-                kept_in(n)
-            };
+            start += kept_in(n);
         }
         starts.push(start);
         let mark = |index| Entry {
@@ -309,9 +311,7 @@ impl LightBuffer {
             }
         };
         each_cell(&self.faces, footprints, |cell, index, print| {
-            if !is_split[cell] {
-                file(cell, counts[cell], index, print)
-            }
+            file(cell, counts[cell], index, print)
         });
         splits.each_sub_cell(&self.faces, footprints, &counts, |sub, index, print| {
             file(cells + sub, splits.counts[sub], index, print)
