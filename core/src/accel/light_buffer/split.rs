@@ -280,20 +280,10 @@ mod tests {
             LightBuffer::build(light, &bounds, &tris, &[], SIZED_FOR[1]).expect("a buffer");
         assert!(!buffer.splits.is_empty(), "the patch's cells are split");
         assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len(), SIZED_FOR[1]));
-        let (mut answered, mut blockers, mut listed_total) = (0, 0, 0);
         let queries = 4000;
-        for _ in 0..queries {
-            // From below the patch, towards the light through it.
-            let through = in_patch(&mut rng);
-            let origin = light + (through - light) * rng.range(1.01, 1.5);
-            let ray = Ray::new(origin, light - origin);
-            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
-                continue;
-            };
-            answered += 1;
-            blockers += blockers_listed(&list, &ray, &tris);
-            listed_total += list.len();
-        }
+        // From below the patch, towards the light through it.
+        let (answered, blockers, listed_total) =
+            through_points(&buffer, &tris, &mut rng, queries, |rng, _| in_patch(rng));
         // Without the splits every one of these queries would walk.
         assert!(
             answered * 10 > queries * 9,
@@ -351,19 +341,11 @@ mod tests {
         );
         assert!(buffer.splits.len() >= 8, "{} splits", buffer.splits.len());
         assert!(buffer.bytes() < LightBuffer::peak_bytes(tris.len(), SIZED_FOR[0]));
-        let (mut answered, mut blockers, mut listed_total) = (0, 0, 0);
         let queries = 4000;
-        for q in 0..queries {
-            let through = in_patch(&mut rng, centres[q % centres.len()]);
-            let origin = light + (through - light) * rng.range(1.01, 1.5);
-            let ray = Ray::new(origin, light - origin);
-            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
-                continue;
-            };
-            answered += 1;
-            blockers += blockers_listed(&list, &ray, &tris);
-            listed_total += list.len();
-        }
+        let (answered, blockers, listed_total) =
+            through_points(&buffer, &tris, &mut rng, queries, |rng, q| {
+                in_patch(rng, centres[q % centres.len()])
+            });
         assert_eq!(answered, queries, "every query is answered from a list");
         assert!(blockers > 300, "{blockers} blockers checked");
         // Unsplit, each query would list its patch's 24.
@@ -371,5 +353,31 @@ mod tests {
             listed_total < 8 * answered,
             "{listed_total} listed in {answered}"
         );
+    }
+
+    /// `queries` shadow queries towards the buffer's light from beyond `through(rng, q)`: how
+    /// many the buffer answered from a list, the blockers found among `tris` (each checked to
+    /// be listed), and the entries listed in all.
+    fn through_points(
+        buffer: &LightBuffer,
+        tris: &[[Vec3; 3]],
+        rng: &mut Rng,
+        queries: usize,
+        mut through: impl FnMut(&mut Rng, usize) -> Vec3,
+    ) -> (usize, usize, usize) {
+        let light = buffer.light;
+        let (mut answered, mut blockers, mut listed_total) = (0, 0, 0);
+        for q in 0..queries {
+            let through = through(rng, q);
+            let origin = light + (through - light) * rng.range(1.01, 1.5);
+            let ray = Ray::new(origin, light - origin);
+            let Some(list) = listed(buffer.candidates(&ray, 1.0)) else {
+                continue;
+            };
+            answered += 1;
+            blockers += blockers_listed(&list, &ray, tris);
+            listed_total += list.len();
+        }
+        (answered, blockers, listed_total)
     }
 }
