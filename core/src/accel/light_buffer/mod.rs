@@ -31,10 +31,11 @@
 //!
 //! Where a cell lists more than [`CELL_LIMIT`] primitives it may be split: gridded again,
 //! finer, over that cell alone (the `split` module), where its primitives are small against
-//! it; in a small scene, so may a cell listing fewer but many. A query in a crowded cell that is not split, or in a sub-cell still over the limit,
-//! says [`Candidates::Walk`]. A light gets no buffer where over a third of its occupied cells
-//! are over the limit (primitives crowd around it, and the walk is as short as a list), or
-//! where the buffer would outgrow its budget even with coarse cells.
+//! it; in a small scene, so may a cell listing fewer but many. A query in a crowded cell that
+//! is not split, or in a sub-cell still over the limit, says [`Candidates::Walk`]. A light
+//! gets no buffer where over a third of its occupied cells are over the limit (primitives
+//! crowd around it, and the walk is as short as a list), or where the buffer would outgrow
+//! its budget even with coarse cells.
 
 mod split;
 
@@ -393,11 +394,10 @@ impl LightBuffer {
     /// An upper bound of the heap [`LightBuffer::build`] may use at once for `primitives`
     /// primitives sized for `least` at least, what it keeps included: every primitive's
     /// footprints on all six faces (in vectors of at most twice their length, or 4); the cells
-    /// (at most
-    /// [`CELLS_PER_PRIMITIVE`] per primitive sized for, `least` at least, plus the
-    /// rounding up of [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells,
-    /// each counted, started and filled in `u32` arrays, with the list of crowded cells and a
-    /// second count of the sub-cells; the split cells, their grids and their filed entries,
+    /// (at most [`CELLS_PER_PRIMITIVE`] per primitive sized for, plus the rounding up of
+    /// [`MAX_SIDE`]-bounded sides on each face) and the split cells' sub-cells, each counted,
+    /// started and filled in `u32` arrays, with the lists of cells to split and a second count
+    /// of the sub-cells; the split cells, their grids and their filed entries,
     /// twice; and the kept entries within their budgets.
     pub fn peak_bytes(primitives: usize, least: usize) -> u64 {
         let n = primitives as u64;

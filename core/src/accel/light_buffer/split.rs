@@ -160,9 +160,9 @@ fn candidates(counts: &[u32], primitives: usize, long: bool) -> Vec<u32> {
 
 impl Splits {
     /// Keeps, in order, the splits whose sub-cells would be filed at most [`SHORT`] entries
-    /// on average, and at most a quarter of the cell's, while all kept splits' filed entries stay within [`KEPT`] per primitive.
-    /// Counting a footprint's sub-cells takes one product, so a split that is not kept costs
-    /// no filing.
+    /// on average, and at most a quarter of the cell's, while all kept splits' filed entries
+    /// stay within [`KEPT`] per primitive. Counting a footprint's sub-cells takes one product,
+    /// so a split that is not kept costs no filing.
     fn keep_short(
         &mut self,
         faces: &[Option<Grid>; 6],
