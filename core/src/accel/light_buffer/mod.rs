@@ -70,7 +70,8 @@ const MAX_SIDE: u32 = 1024;
 /// primitives allowed (SPD's balls_2, 92 primitives: 736 cells over six faces, 3.6 tests per
 /// shadow ray); sized as for 4,096 instead of 1,024, with its long cells split
 /// ([`split::SPLIT_FROM`]), tree_5 traced in 0.86 of the time, tree_8, teapot_4 and teapot_6
-/// in 0.96 to 0.99 (`docs/performance.md`, thirty-ninth round).
+/// in 0.95 to 0.96, rings_3 and balls_3 in 0.97 to 0.98 (`docs/performance.md`, thirty-ninth
+/// round).
 pub const SIZED_FOR: [usize; 2] = [4096, 1024];
 
 /// The number of primitives a buffer over `primitives` is sized for, `least` at least.
