@@ -303,9 +303,9 @@ fn light_buffers_answer_as_the_walk_at_every_scale() {
 fn light_buffers_stay_within_the_memory_given() {
     let (desc, _) = desc(&mut Rng::new(53));
     let params = OctreeParams::default();
+    let within = |memory| Scene::build_within(&desc, &params, memory).expect("valid scene");
     let built = |memory| {
-        let scene = Scene::build_within(&desc, &params, memory).expect("valid scene");
-        scene
+        within(memory)
             .light_buffers
             .iter()
             .map(Option::is_some)
@@ -323,7 +323,6 @@ fn light_buffers_stay_within_the_memory_given() {
     assert_eq!(built(coarse - 1), [false; 5]);
     let scene = Scene::build(&desc, &params).expect("valid scene");
     let first = scene.light_buffers[0].as_ref().expect("a buffer").bytes();
-    let within = |memory| Scene::build_within(&desc, &params, memory).expect("valid scene");
     let coarsely = within(coarse);
     let first_coarse = coarsely.light_buffers[0]
         .as_ref()
