@@ -31,9 +31,10 @@ use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::camera::{Camera, CameraFrame, SeedCamera};
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::mesh::Rng;
+use strahl_core::scene::triangle_shading::TriangleShadings;
 use strahl_core::scene::{Light, RenderSettings, Scene, SceneDesc, Shader, TriangleDesc};
 use strahl_core_tests::checked::*;
-use strahl_core_tests::meshes::{boundary_grid, positions, random_soup};
+use strahl_core_tests::meshes::{boundary_grid, closed_sphere, positions, random_soup};
 use strahl_host::cluster::local::render_local;
 use strahl_host::cluster::prepared::PreparedScene;
 use strahl_host::formats::load::{load_config_scene, Overrides};
@@ -1207,6 +1208,8 @@ fn degenerate_triangles_never_hit_and_are_reported() {
         good.len()
     );
     assert_eq!(scene_with.bounds, scene_without.bounds);
+    // Degenerate triangles are not flat, so the corner normals are kept and checked.
+    assert_eq!(scene_with.triangle_normals.len(), with.triangles.len());
     for (i, n) in scene_with.triangle_normals.iter().enumerate() {
         assert!(
             n.iter().all(|c| c.is_finite()),
@@ -1264,6 +1267,90 @@ fn degenerate_triangles_never_hit_and_are_reported() {
     assert_eq!(scene.octree.stats().filed_triangles, 1);
     // The host warns about them when it renders (`cli::render::run`: "N of M triangles have zero
     // area ... and are never hit"); that path writes to the terminal and is not checked here.
+}
+
+// ---------------------------------------------------------------------------------------------
+// Flat triangles
+// ---------------------------------------------------------------------------------------------
+
+/// `scene` with every triangle's flat mark cleared and its corner normals loaded: the shading
+/// every triangle got before flat triangles read their geometric normal instead.
+fn without_flat_marks(desc: &SceneDesc, mut scene: Scene) -> Scene {
+    if scene.triangle_normals.is_empty() {
+        // Every triangle is flat: its corners hold its unit normal.
+        scene.triangle_normals = scene
+            .triangle_points
+            .iter()
+            .map(|p| [unit_normal(p).expect("hit triangles are not degenerate"); 3])
+            .collect();
+    }
+    let shaders = desc.triangles.iter().map(|t| t.shader);
+    let not_flat = vec![[Vec3::ZERO; 3]; desc.triangles.len()];
+    scene.triangle_shading = TriangleShadings::new(&scene.triangle_points, &not_flat, shaders);
+    scene
+}
+
+/// Triangles with points of their own (NFF's `p` polygons) are flat, and a hit shades them
+/// from the normal of the points it tested instead of loading their corner normals: the same
+/// pixels, with highlights and mirrors that read the shading normal, beside a smooth sphere
+/// mesh whose shared points give other normals. A scene of flat triangles alone keeps no
+/// corner normals at all.
+#[test]
+fn flat_triangles_shade_as_their_corner_normals_do() {
+    let mut rng = Rng::new(40);
+    let soup: Vec<[Vec3; 3]> = random_soup(2000, &mut rng)
+        .into_iter()
+        .filter(|t| unit_normal(t).is_some())
+        .collect();
+    let ball = positions(&closed_sphere(12, 8, 0.05, &mut rng))
+        .into_iter()
+        .map(|t| t.map(|p| p * 0.6 + Vec3::new(0.4, 0.5, -0.3)));
+    let shiny = Shader::phong(Vec3::splat(0.1), Vec3::splat(0.6), Vec3::ONE, 20.0, 0.0);
+    let scene_of = |tris: Vec<([Vec3; 3], u32)>| {
+        triangle_desc(
+            &tris,
+            vec![shiny, mirror()],
+            vec![point_light(Vec3::new(2.0, -3.0, 3.0), true)],
+            eye(Vec3::new(0.0, -2.5, 0.0), 0.0, 1.0),
+            settings(96, 72),
+        )
+    };
+    let mut tris: Vec<([Vec3; 3], u32)> = soup
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| (t, (i % 3 == 0) as u32))
+        .collect();
+    let flat_alone = scene_of(tris.clone());
+    tris.extend(ball.map(|t| (t, 0)));
+    let mixed = scene_of(tris);
+    for (name, desc, all_flat) in [
+        ("flat alone", &flat_alone, true),
+        ("with a smooth mesh", &mixed, false),
+    ] {
+        let scene = build(desc);
+        let flat = (0..desc.triangles.len())
+            .filter(|&t| scene.triangle_shading.get(t).flat())
+            .count();
+        assert_eq!(
+            flat,
+            soup.len(),
+            "{name}: the triangles with points of their own"
+        );
+        assert_eq!(scene.triangle_shading.all_flat(), all_flat, "{name}");
+        assert_eq!(scene.triangle_normals.is_empty(), all_flat, "{name}");
+        let fast = render_pixels(&scene);
+        let slow = render_pixels(&without_flat_marks(desc, build(desc)));
+        let lit = fast.iter().filter(|&&p| p != background_pixel()).count();
+        assert!(
+            lit > fast.len() / 10,
+            "{name}: only {lit} pixels show a triangle"
+        );
+        let differ = fast.iter().zip(&slow).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differ, 0,
+            "{name}: {differ} pixels differ from the corner normals' shading"
+        );
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1985,7 +2072,9 @@ fn coplanar_overlapping_triangles_pick_the_same_winner() {
                 let ray = pixel_ray(&scene, x, y);
                 let hit = brute_force_closest_hit(&scene.triangle_points, &ray, f32::INFINITY);
                 let want = hit.map_or(background_pixel(), |h| {
-                    Pixel::from_color(colors[scene.triangle_shader[h.triangle as usize] as usize])
+                    Pixel::from_color(
+                        colors[scene.triangle_shading.get(h.triangle as usize).shader() as usize],
+                    )
                 });
                 assert_eq!(
                     img.at(x, y),
@@ -2008,7 +2097,7 @@ fn coplanar_overlapping_triangles_pick_the_same_winner() {
                         tied[0], h.triangle as usize,
                         "pixel ({x}, {y}): lowest index wins"
                     );
-                    let shader = scene.triangle_shader[h.triangle as usize];
+                    let shader = scene.triangle_shading.get(h.triangle as usize).shader();
                     ties[usize::from(shader >= 2)] += 1;
                     if shader >= 2 {
                         assert_eq!(shader, dup_first, "pixel ({x}, {y}): the first copy wins");

@@ -207,7 +207,13 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
             let outward = unit_normal(p).unwrap_or(Vec3::Z);
             let entering = outward.dot(ray.dir) <= 0.0;
             let geometric = if entering { outward } else { -outward };
-            let n = &scene.triangle_normals[t];
+            let shading_of = scene.triangle_shading.get(t);
+            // A flat triangle's corners hold `outward`, bit for bit: nothing to load.
+            let n = &if shading_of.flat() {
+                [outward; 3]
+            } else {
+                scene.triangle_normals[t]
+            };
             let b = h.b;
             let mut shading = (n[0] * b[0] + n[1] * b[1] + n[2] * b[2]).unit_or_zero();
             if shading == Vec3::ZERO {
@@ -215,7 +221,7 @@ fn surface(scene: &Scene, ray: &Ray, hit: &PrimitiveHit) -> Surface {
             } else if shading.dot(geometric) < 0.0 {
                 shading = -shading;
             }
-            let shader = scene.triangle_shader[t];
+            let shader = shading_of.shader();
             Surface {
                 point,
                 geometric,

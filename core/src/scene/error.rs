@@ -25,7 +25,8 @@ pub enum SceneError {
     NonFiniteNumber,
     /// The image is 0 pixels or larger than [`crate::scene::MAX_IMAGE_SIDE`] on a side.
     BadImageSize,
-    /// More points or triangles than a `u32` index can address.
+    /// More points or triangles than a `u32` index can address, or more shaders than
+    /// [`MAX_SHADERS`](crate::scene::triangle_shading::MAX_SHADERS).
     TooLarge,
     /// Triangle `triangle` names a shading normal that does not exist.
     NormalIndexOutOfRange {
@@ -95,7 +96,8 @@ impl fmt::Display for SceneError {
             ),
             SceneError::TooLarge => write!(
                 f,
-                "the scene has more points or triangles than fit a u32 index"
+                "the scene has more points or triangles than fit a u32 index, or more than 2^31 \
+                 shaders"
             ),
             SceneError::NormalIndexOutOfRange { triangle } => {
                 write!(f, "triangle {triangle} names a normal that does not exist")

@@ -10,12 +10,14 @@
 //! - [`validate`]: [`SceneDesc::validate`], every rule and index checked before preparing.
 //! - [`prepared`]: [`Scene::build`], which validates, computes smooth vertex normals, prepares the
 //!   solids and builds the octree.
+//! - [`triangle_shading`]: each triangle's shader and whether its smooth normals are its
+//!   geometric normal, which is all a hit of a flat triangle reads besides its points.
 //! - [`mesh`]: [`MeshBuilder`](mesh::MeshBuilder) and [`Rng`](mesh::Rng), procedural meshes
 //!   for generated scenes and tests.
 //! - [`error`]: [`SceneError`](error::SceneError), why a description cannot be prepared.
 //!
 //! Inside the layer (`a ← b`: `b` uses `a`): `settings` ← `model` ← `effects`, `validate`,
-//! `mesh`, and `effects`, `validate` ← `prepared`; the layer uses `math`, `geom` and `accel`
+//! `mesh`, and `effects`, `validate`, `triangle_shading` ← `prepared`; the layer uses `math`, `geom` and `accel`
 //! below it.
 
 pub mod camera;
@@ -25,6 +27,7 @@ pub mod mesh;
 pub mod model;
 pub mod prepared;
 pub mod settings;
+pub mod triangle_shading;
 pub mod validate;
 
 pub use model::{Blend, Light, SceneDesc, Shader, TriangleDesc, MAX_IMAGE_SIDE};

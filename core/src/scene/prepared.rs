@@ -8,6 +8,7 @@ use super::effects::{shadow_ray_matters, Effects};
 use super::error::SceneError;
 use super::model::{Light, SceneDesc, Shader};
 use super::settings::RenderSettings;
+use super::triangle_shading::TriangleShadings;
 use crate::accel::leaf_spheres::LeafSpheres;
 use crate::accel::light_buffer::{LightBuffer, SIZED_FOR};
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
@@ -29,7 +30,7 @@ use glam::Vec3;
 pub struct Scene {
     /// Image size and switches.
     pub settings: RenderSettings,
-    /// Shaders, indexed by [`Scene::triangle_shader`] and the solids' leaves.
+    /// Shaders, indexed by [`Scene::triangle_shading`]'s shaders and the solids' leaves.
     pub shaders: Vec<Shader>,
     /// Lights.
     pub lights: Vec<Light>,
@@ -37,10 +38,12 @@ pub struct Scene {
     pub camera: CameraFrame,
     /// Vertex positions of each triangle, by triangle index.
     pub triangle_points: Vec<[Vec3; 3]>,
-    /// Smooth normal at each corner of each triangle, by triangle index (unit length).
+    /// Smooth normal at each corner of each triangle, by triangle index (unit length); empty
+    /// where every triangle is flat ([`TriangleShadings::all_flat`]), as no hit reads them.
     pub triangle_normals: Vec<[Vec3; 3]>,
-    /// Shader index of each triangle.
-    pub triangle_shader: Vec<u32>,
+    /// Shader index of each triangle, and whether it is flat (its corner normals are its
+    /// geometric normal, which a hit reads instead).
+    pub triangle_shading: TriangleShadings,
     /// The axis-aligned planes that triangles share, which a shadow ray leaving one of their
     /// triangles passes over ([`Scene::shadowed`]).
     pub axis_planes: AxisPlanes,
@@ -108,7 +111,7 @@ impl Scene {
             .iter()
             .map(|t| t.points.map(|i| desc.points[i as usize]))
             .collect();
-        let (triangle_normals, mut degenerate) = smooth_normals(desc, &triangle_points);
+        let (mut triangle_normals, mut degenerate) = smooth_normals(desc, &triangle_points);
         degenerate += desc
             .solid_triangles
             .iter()
@@ -154,6 +157,12 @@ impl Scene {
         let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
         let sphere_interiors =
             SphereInteriors::build(&octree, &triangle_points, &extents, spheres, sphere_of);
+        let shaders = desc.triangles.iter().map(|t| t.shader);
+        let triangle_shading = TriangleShadings::new(&triangle_points, &triangle_normals, shaders);
+        if triangle_shading.all_flat() {
+            // 36 bytes a triangle no hit reads (SPD's tetra and mount).
+            triangle_normals = Vec::new();
+        }
         Ok(Scene {
             light_buffers,
             sphere_interiors,
@@ -162,9 +171,9 @@ impl Scene {
             lights: desc.lights.clone(),
             camera: CameraFrame::new(&desc.camera, desc.settings.width, desc.settings.height),
             axis_planes: AxisPlanes::new(&triangle_points),
+            triangle_shading,
             triangle_points,
             triangle_normals,
-            triangle_shader: desc.triangles.iter().map(|t| t.shader).collect(),
             degenerate_triangles: degenerate,
             solids,
             unbounded,

@@ -4,6 +4,7 @@
 use super::camera::Camera;
 use super::error::SceneError;
 use super::model::{shares_fit, SceneDesc, MAX_IMAGE_SIDE};
+use super::triangle_shading::MAX_SHADERS;
 use crate::geom::solid::{SolidNode, MAX_CSG_DEPTH};
 use alloc::vec::Vec;
 use glam::Vec3;
@@ -34,7 +35,7 @@ impl SceneDesc {
             self.normals.len(),
             self.solids.len(),
         ];
-        if counts.iter().any(|&n| u32::try_from(n).is_err()) {
+        if counts.iter().any(|&n| u32::try_from(n).is_err()) || self.shaders.len() > MAX_SHADERS {
             return Err(SceneError::TooLarge);
         }
         if !self.numbers_are_finite() {
