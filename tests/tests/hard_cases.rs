@@ -1292,9 +1292,9 @@ fn without_flat_marks(desc: &SceneDesc, mut scene: Scene) -> Scene {
 
 /// Triangles with points of their own (NFF's `p` polygons) are flat, and a hit shades them
 /// from the normal of the points it tested instead of loading their corner normals: the same
-/// pixels, with highlights and mirrors that read the shading normal, beside a smooth sphere
-/// mesh whose shared points give other normals. A scene of flat triangles alone keeps no
-/// corner normals at all.
+/// pixels, with highlights and mirrors that read the shading normal, with one shader for all
+/// or two, and beside a smooth sphere mesh whose shared points give other normals. A scene of
+/// flat triangles alone keeps no corner normals at all.
 #[test]
 fn flat_triangles_shade_as_their_corner_normals_do() {
     let mut rng = Rng::new(40);
@@ -1321,10 +1321,13 @@ fn flat_triangles_shade_as_their_corner_normals_do() {
         .map(|(i, &t)| (t, (i % 3 == 0) as u32))
         .collect();
     let flat_alone = scene_of(tris.clone());
+    // One shader for all: the scene keeps one shading for every triangle.
+    let one_shader = scene_of(tris.iter().map(|&(t, _)| (t, 0)).collect());
     tris.extend(ball.map(|t| (t, 0)));
     let mixed = scene_of(tris);
     for (name, desc, all_flat) in [
         ("flat alone", &flat_alone, true),
+        ("flat with one shader", &one_shader, true),
         ("with a smooth mesh", &mixed, false),
     ] {
         let scene = build(desc);

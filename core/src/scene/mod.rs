@@ -17,8 +17,8 @@
 //! - [`error`]: [`SceneError`](error::SceneError), why a description cannot be prepared.
 //!
 //! Inside the layer (`a ← b`: `b` uses `a`): `settings` ← `model` ← `effects`, `validate`,
-//! `mesh`, and `effects`, `validate`, `triangle_shading` ← `prepared`; the layer uses `math`, `geom` and `accel`
-//! below it.
+//! `mesh`, and `effects`, `validate`, `triangle_shading` ← `prepared`; the layer uses `math`,
+//! `geom` and `accel` below it.
 
 pub mod camera;
 pub mod effects;
