@@ -304,15 +304,21 @@ fn light_buffers_stay_within_the_memory_given() {
     let (desc, _) = desc(&mut Rng::new(53));
     let params = OctreeParams::default();
     let within = |memory| Scene::build_within(&desc, &params, memory).expect("valid scene");
-    let built = |memory| {
-        within(memory)
+    let present = |scene: &Scene| {
+        scene
             .light_buffers
             .iter()
             .map(Option::is_some)
             .collect::<Vec<_>>()
     };
-    let all = built(u64::MAX);
-    assert_eq!(all, [true, true, true, true, false], "light 4 casts none");
+    let built = |memory| present(&within(memory));
+    let first_bytes = |scene: &Scene| scene.light_buffers[0].as_ref().map(|b| b.bytes());
+    let unlimited = within(u64::MAX);
+    assert_eq!(
+        present(&unlimited),
+        [true, true, true, true, false],
+        "light 4 casts none"
+    );
     let peak = |least| light_buffer_peak(desc.triangles.len(), desc.objects.len(), least);
     let [fine, coarse] = SIZED_FOR.map(peak);
     assert!(
@@ -321,22 +327,18 @@ fn light_buffers_stay_within_the_memory_given() {
     );
     assert_eq!(built(0), [false; 5]);
     assert_eq!(built(coarse - 1), [false; 5]);
-    let scene = Scene::build(&desc, &params).expect("valid scene");
-    let first = scene.light_buffers[0].as_ref().expect("a buffer").bytes();
-    let coarsely = within(coarse);
-    let first_coarse = coarsely.light_buffers[0]
-        .as_ref()
-        .expect("a buffer")
-        .bytes();
+    let first = first_bytes(&unlimited).expect("a buffer");
+    let (coarsely, finely) = (within(coarse), within(fine));
+    let first_coarse = first_bytes(&coarsely).expect("a buffer");
     // Enough for one: the first light's buffer leaves less than the next one may need.
-    assert_eq!(built(coarse), [true, false, false, false, false]);
-    assert_eq!(built(fine), [true, false, false, false, false]);
+    assert_eq!(present(&coarsely), [true, false, false, false, false]);
+    assert_eq!(present(&finely), [true, false, false, false, false]);
     assert!(
         first < fine && first_coarse < coarse && first_coarse < first,
         "{first} bytes kept of {fine} at most, {first_coarse} of {coarse} sized coarsely"
     );
     assert_eq!(
-        within(fine).light_buffers[0].as_ref().map(|b| b.bytes()),
+        first_bytes(&finely),
         Some(first),
         "memory for the fine peak gets the fine buffer"
     );
