@@ -3,7 +3,8 @@
 //!
 //! For reads whose place the processor cannot foresee and that the code knows a few steps
 //! ahead: the octree build appraising a leaf reads its triangles in the leaf's order, scattered
-//! over the scene's list. On x86 the hint is SSE's `prefetcht0`, through the safe wrapper of
+//! over the scene's list, and each of its steps reads records and lists that the queue names
+//! a step before. On x86 the hint is SSE's `prefetcht0`, through the safe wrapper of
 //! `safe_arch` (the crate under `wide`; the workspace forbids `unsafe`); elsewhere it is
 //! nothing. A hint reads no value and changes no result.
 
