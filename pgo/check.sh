@@ -6,6 +6,11 @@
 # since (rustc warns "function control flow change detected") fails the check, as it would lose
 # its optimisation silently. Re-record with `bash pgo/record.sh`. Last, a core built for
 # x86-64-v3 must refuse an emulated older processor with a message, not `Illegal instruction`.
+#
+# Usage: pgo/check.sh                   builds the release binary, then checks it
+#        pgo/check.sh --build-only LOG  builds it only, its output in LOG (.ci/run runs this in
+#                                       the background, beside the tests)
+#        pgo/check.sh --built LOG       checks the binary that `--build-only LOG` built
 set -euo pipefail
 cd "$(dirname "$0")/.."
 case "$(uname -s)-$(uname -m)" in
@@ -15,15 +20,35 @@ Linux-x86_64) ;;
     exit 0
     ;;
 esac
+mode="${1:-}"
+case "$mode" in
+"") ;;
+--build-only | --built)
+    [ $# = 2 ] || { echo "pgo/check.sh: $mode needs one argument, the build's log" >&2; exit 2; }
+    ;;
+*)
+    echo "pgo/check.sh: unknown argument $mode (usage: pgo/check.sh [--build-only|--built LOG])" >&2
+    exit 2
+    ;;
+esac
+# The warnings come only from a compile of the core. Cleaning its release build alone forces
+# one; touching a source would also make the test build (`cargo test`'s) recompile the core and
+# every crate above it, which took 187 s on 2 cores.
+if [ "$mode" = --build-only ]; then
+    cargo clean --release -p strahl-core >"$2" 2>&1
+    # The shell becomes the build, so that .ci/run stops the build when it stops this.
+    exec cargo build --release -p strahl-host >>"$2" 2>&1
+fi
 log="$(mktemp)"
 out="$(mktemp -d)"
 trap 'rm -rf "$log" "$out"' EXIT
-
-# The warnings come only from a compile of the core. Cleaning its release build alone forces
-# one; touching a source would also make the test build (`cargo test`'s, compiled just before in
-# .ci/run) recompile the core and every crate above it, which took 187 s on 2 cores.
-cargo clean --release -p strahl-core
-cargo build --release -p strahl-host 2>&1 | tee "$log"
+if [ "$mode" = --built ]; then
+    cp "$2" "$log"
+    cat "$log"
+else
+    cargo clean --release -p strahl-core
+    cargo build --release -p strahl-host 2>&1 | tee "$log"
+fi
 if grep -q "control flow change detected" "$log"; then
     if grep -qx "rustc $(rustc -vV | sed -n 's/^release: //p')" pgo/recorded-with; then
         echo "pgo/check.sh: the profile is stale (functions above changed since it was recorded);" \
