@@ -75,8 +75,16 @@ fn incoming(msg: WorkerMessage<'_>, width: u32) -> Option<Incoming> {
     })
 }
 
-/// The reader thread: frames from one worker become events until the link closes.
-fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &SyncSender<Event>) {
+/// The reader thread: frames from one worker become events until the link closes. It alone
+/// reports the link closed, so that whatever the worker sent before the link failed is passed
+/// on first, also where a write found the link broken ([`write_loop`]).
+fn read_loop(
+    id: usize,
+    reader: Box<dyn Read + Send>,
+    width: u32,
+    outbox: &Outbox,
+    events: &SyncSender<Event>,
+) {
     let mut link = FromStd::new(reader);
     let mut frames = FrameReader::new(vec![
         0u8;
@@ -95,8 +103,10 @@ fn read_loop(id: usize, reader: Box<dyn Read + Send>, width: u32, events: &SyncS
             },
             Ok(ReadEvent::Dropped(_)) => Event::BadFrame(id),
             Err(LinkError::TimedOut) => continue,
-            Err(LinkError::Closed) => Event::Closed(id, "the connection closed".to_string()),
-            Err(LinkError::Io(kind)) => Event::Closed(id, format!("read error: {kind:?}")),
+            Err(LinkError::Closed) => Event::Closed(id, outbox.why_closed("the connection closed")),
+            Err(LinkError::Io(kind)) => {
+                Event::Closed(id, outbox.why_closed(&format!("read error: {kind:?}")))
+            }
         };
         let last = matches!(event, Event::Closed(..));
         if events.send(event).is_err() || last {
@@ -128,9 +138,18 @@ struct Outbox {
     last_chunk_write: Mutex<Instant>,
     /// Set when the worker is dropped: the writer stops at the next frame.
     cut: AtomicBool,
+    /// Why a write failed, for the reader to report when the link ends.
+    write_error: Mutex<Option<String>>,
 }
 
 impl Outbox {
+    /// Why the link ended: a failed write's error if there was one (the read that ended then
+    /// only followed from it), else `read`.
+    fn why_closed(&self, read: &str) -> String {
+        let failed = self.write_error.lock().unwrap_or_else(|e| e.into_inner());
+        failed.clone().unwrap_or_else(|| read.to_string())
+    }
+
     fn last_chunk_write(&self) -> Instant {
         *self
             .last_chunk_write
@@ -141,32 +160,39 @@ impl Outbox {
 
 /// How a link ends when its writer thread stops.
 struct Ending<'a> {
-    /// After the last queued frame (the session is over): the master's side only.
+    /// After the last queued frame (the session is over) or a failed write: the master's side
+    /// only.
     hang_up: &'a (dyn Fn() + Send + Sync),
-    /// After a failed write or when the worker is dropped: the whole link.
+    /// When the worker is dropped: the whole link.
     cut: &'a (dyn Fn() + Send + Sync),
 }
 
-/// The writer thread: queued frames go out until the queue closes (then the master hangs up its
-/// side) or the worker is dropped or a write fails (then the link is cut).
+/// The writer thread: queued frames go out until the queue closes or a write fails (then the
+/// master hangs up its side) or the worker is dropped (then the link is cut).
+///
+/// A failed write is not reported here but kept for the reader, which reports the link closed
+/// when its reads end (a broken link's reads end too: at once over TCP and in-process pipes, at
+/// the next read time-out on a serial port, as the hang-up closes its reader). Reported here,
+/// the loss could overtake line results the reader had still to pass on, and those were lost
+/// with the link (`cut_connection_loses_the_worker_and_the_image_is_complete` in
+/// `host/tests/cli_tcp.rs` saw it under load).
 fn write_loop(
     id: usize,
     mut writer: Box<dyn Write + Send>,
     frames: &Receiver<Outgoing>,
     outbox: &Outbox,
-    events: &SyncSender<Event>,
     ending: &Ending<'_>,
     done: &Sender<usize>,
 ) {
-    let mut graceful = true;
+    let mut dropped = false;
     for Outgoing { frame, chunk } in frames {
         if outbox.cut.load(Ordering::Relaxed) {
-            graceful = false;
+            dropped = true;
             break;
         }
         if let Err(e) = writer.write_all(&frame).and_then(|()| writer.flush()) {
-            let _ = events.send(Event::Closed(id, format!("write failed: {e}")));
-            graceful = false;
+            *outbox.write_error.lock().unwrap_or_else(|e| e.into_inner()) =
+                Some(format!("write failed: {e}"));
             break;
         }
         outbox.queued.fetch_sub(frame.len(), Ordering::Relaxed);
@@ -177,10 +203,10 @@ fn write_loop(
                 .unwrap_or_else(|e| e.into_inner()) = Instant::now();
         }
     }
-    if graceful {
-        (ending.hang_up)();
-    } else {
+    if dropped {
         (ending.cut)();
+    } else {
+        (ending.hang_up)();
     }
     let _ = done.send(id);
 }
@@ -226,23 +252,24 @@ impl Links {
         let id = self.ends.len();
         let (tx, rx) = mpsc::channel::<Outgoing>();
         let closer: Arc<dyn Fn() + Send + Sync> = Arc::from(link.closer);
-        let events = self.events_tx.clone();
-        let width = self.width;
-        let reader = link.reader;
-        let reader_ok = std::thread::Builder::new()
-            .name(format!("strahl-rx-{id}"))
-            .spawn(move || read_loop(id, reader, width, &events))
-            .is_ok();
-        let events = self.events_tx.clone();
-        let writer = link.writer;
-        let hang_up = link.hang_up;
-        let thread_closer = Arc::clone(&closer);
-        let done = self.writers_done_tx.clone();
         let outbox = Arc::new(Outbox {
             queued: AtomicUsize::new(0),
             last_chunk_write: Mutex::new(Instant::now()),
             cut: AtomicBool::new(false),
+            write_error: Mutex::new(None),
         });
+        let events = self.events_tx.clone();
+        let width = self.width;
+        let reader = link.reader;
+        let reader_outbox = Arc::clone(&outbox);
+        let reader_ok = std::thread::Builder::new()
+            .name(format!("strahl-rx-{id}"))
+            .spawn(move || read_loop(id, reader, width, &reader_outbox, &events))
+            .is_ok();
+        let writer = link.writer;
+        let hang_up = link.hang_up;
+        let thread_closer = Arc::clone(&closer);
+        let done = self.writers_done_tx.clone();
         let thread_outbox = Arc::clone(&outbox);
         let writer_ok = std::thread::Builder::new()
             .name(format!("strahl-tx-{id}"))
@@ -251,7 +278,7 @@ impl Links {
                     hang_up: &*hang_up,
                     cut: &*thread_closer,
                 };
-                write_loop(id, writer, &rx, &thread_outbox, &events, &ending, &done);
+                write_loop(id, writer, &rx, &thread_outbox, &ending, &done);
             })
             .is_ok();
         self.ends.push(LinkEnd {
@@ -323,5 +350,87 @@ impl Wire for Links {
         end.tx = None;
         end.outbox.cut.store(true, Ordering::Relaxed);
         (end.closer)();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cluster::link::LinkKind;
+    use std::io;
+    use std::sync::mpsc::RecvTimeoutError;
+    use std::time::Duration;
+    use strahl_core::wire::frame::FrameWriter;
+
+    /// A link whose writes fail and whose reader holds one frame back until the writer thread
+    /// has ended the link (hung up or cut it): a worker's answer still unread when the master
+    /// found the link broken.
+    fn broken_link(answer: Vec<u8>) -> Link {
+        let (ended_tx, ended) = mpsc::channel::<()>();
+        let cut_tx = ended_tx.clone();
+        struct Failing;
+        impl Write for Failing {
+            fn write(&mut self, _: &[u8]) -> io::Result<usize> {
+                Err(io::ErrorKind::BrokenPipe.into())
+            }
+            fn flush(&mut self) -> io::Result<()> {
+                Ok(())
+            }
+        }
+        struct Held {
+            ended: Option<Receiver<()>>,
+            answer: io::Cursor<Vec<u8>>,
+        }
+        impl Read for Held {
+            fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+                // Ten seconds at most: the test fails on the missing event, not by hanging.
+                if let Some(ended) = self.ended.take() {
+                    let _ = ended.recv_timeout(Duration::from_secs(10));
+                }
+                self.answer.read(buf)
+            }
+        }
+        Link {
+            address: "broken".into(),
+            kind: LinkKind::InProcess,
+            reader: Box::new(Held {
+                ended: Some(ended),
+                answer: io::Cursor::new(answer),
+            }),
+            writer: Box::new(Failing),
+            closer: Box::new(move || {
+                let _ = cut_tx.send(());
+            }),
+            hang_up: Box::new(move || {
+                let _ = ended_tx.send(());
+            }),
+        }
+    }
+
+    #[test]
+    fn what_the_worker_sent_before_a_write_failed_comes_before_the_loss() {
+        let answer = FrameWriter::new()
+            .encode(&WorkerMessage::FenceAck { seq: 7 })
+            .map(<[u8]>::to_vec)
+            .expect("a fence's answer encodes");
+        let (mut links, events) = Links::new(4);
+        assert!(links.add(broken_link(answer)));
+        links.send(0, &MasterMessage::Fence { seq: 7 });
+        let next = || match events.recv_timeout(Duration::from_secs(20)) {
+            Ok(event) => event,
+            Err(RecvTimeoutError::Timeout | RecvTimeoutError::Disconnected) => {
+                panic!("no event from the link threads")
+            }
+        };
+        let first = next();
+        assert!(
+            matches!(first, Event::Message(0, Incoming::FenceAck { seq: 7 })),
+            "the answer must come first, got {first:?}"
+        );
+        let second = next();
+        let Event::Closed(0, reason) = second else {
+            panic!("then the link's loss, got {second:?}");
+        };
+        assert!(reason.starts_with("write failed: "), "{reason}");
     }
 }
