@@ -31,9 +31,9 @@ case "$mode" in
     exit 2
     ;;
 esac
-# The warnings come only from a compile of the core. Cleaning its release build alone forces
-# one; touching a source would also make the test build (`cargo test`'s) recompile the core and
-# every crate above it, which took 187 s on 2 cores.
+# The warnings come only from a compile. Cleaning the core's release build alone forces one of it
+# and of every crate above it; touching a source would also make the test build (`cargo test`'s)
+# recompile them, which took 187 s on 2 cores.
 if [ "$mode" = --build-only ]; then
     cargo clean --release -p strahl-core >"$2" 2>&1
     # The shell becomes the build, so that .ci/run stops the build when it stops this.
