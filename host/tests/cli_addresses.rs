@@ -3,10 +3,10 @@
 //! prints where workers find it, a bad address is a usage error (exit 2) with examples, a
 //! worker named twice is used once, and two workers with one name get rows that tell them apart.
 
-mod support;
-
+use crate::support::{
+    assert_reference_image, finish, render_args, row, table, Proc, TestResult, SMALL,
+};
 use std::time::Duration;
-use support::{assert_reference_image, finish, render_args, row, table, Proc, TestResult, SMALL};
 
 #[test]
 fn a_port_alone_listens_on_this_machine_and_a_master_says_where_it_listens() -> TestResult {

@@ -4,12 +4,10 @@
 //! `--insecure`. Each refusal must be clear on the side refused and logged on the side that
 //! refuses, and neither side may hang or crash.
 
-mod support;
-
+use crate::support::*;
 use std::error::Error;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
-use support::*;
 
 /// Writes `secret` (with a line break, as an editor would) to `dir/name`.
 fn secret_file(dir: &Path, name: &str, secret: &str) -> Result<PathBuf, Box<dyn Error>> {

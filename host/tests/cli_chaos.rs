@@ -12,8 +12,7 @@
 //! liar runs the core's worker session with the simulated cluster's lying outbox, which changes
 //! one pixel per line); the others are `strahl worker` processes.
 
-mod support;
-
+use crate::support::*;
 use embedded_io_adapters::std::FromStd;
 use std::error::Error;
 use std::io::{Read as _, Write as _};
@@ -23,7 +22,6 @@ use std::thread;
 use std::time::Duration;
 use strahl_core::worker::{serve_with, NodeInfo, SceneCache};
 use strahl_host::cluster::sim::Liar;
-use support::*;
 
 /// A lying worker on a loopback port: serves one master, then ends.
 fn start_liar() -> Result<String, Box<dyn Error>> {

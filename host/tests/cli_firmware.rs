@@ -11,8 +11,7 @@
 //! missing; `STRAHL_REQUIRE_QEMU=1` (set by `.ci/run`, whose setup installs it) makes that a
 //! failure.
 
-mod support;
-
+use crate::support::{finish, room_config, table, Proc, Rendered, TestResult};
 use embedded_io_adapters::std::FromStd;
 use std::error::Error;
 use std::io::{BufRead as _, BufReader};
@@ -24,7 +23,6 @@ use strahl_core::wire::auth::Nonce;
 use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::wire::message::{Hello, MasterMessage, WorkerMessage};
 use strahl_core::wire::{MAX_FRAME_LEN, PROTOCOL_VERSION};
-use support::{finish, room_config, table, Proc, Rendered, TestResult};
 
 const QEMU: &str = "/usr/bin/qemu-system-arm";
 
@@ -149,6 +147,8 @@ fn build(secret: Option<&Path>, heap_kib: Option<u32>, to: &Path) -> Result<Path
         .args(["build", "--release", "--target", "thumbv7em-none-eabihf"])
         .args(["--features", "semihosting", "--manifest-path"])
         .arg(dir.join("Cargo.toml"))
+        // The ELF is looked for in the firmware's own target folder, wherever the tests build.
+        .env_remove("CARGO_TARGET_DIR")
         .env_remove("STRAHL_FIRMWARE_SECRET_FILE")
         .env_remove("STRAHL_FIRMWARE_HEAP_KIB");
     if let Some(file) = secret {

@@ -2,12 +2,10 @@
 //! the link threads hold a bounded number of events, and a reader that finds the queue full
 //! stops reading its link. Before, a flood grew a listening master to 6.1 GB in 25 s.
 
-mod support;
-
+use crate::support::*;
 use std::io::{Read as _, Write as _};
 use std::net::TcpListener;
 use std::thread;
-use support::*;
 
 /// A peer on a loopback port that answers the master's `Hello` with an endless stream of tiny
 /// frames that fail their check.

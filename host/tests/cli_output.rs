@@ -4,10 +4,8 @@
 //! `-o -` writes to standard output, and what Strahl cannot read or write is a usage error
 //! (exit 2) that lists what it can.
 
-mod support;
-
+use crate::support::{room_config, TestResult, BIN};
 use std::process::{Command, Stdio};
-use support::{room_config, TestResult, BIN};
 
 /// A finished run: its exit code, stdout and stderr.
 type Ran = Result<(Option<i32>, Vec<u8>, String), Box<dyn std::error::Error>>;

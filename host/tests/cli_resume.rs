@@ -4,14 +4,12 @@
 //! a fresh render does not overwrite a checkpoint, and no temporary file is left behind.
 //! SIGTERM stops a render as Ctrl-C does; a signal while the image is written lets it finish.
 
-mod support;
-
+use crate::support::*;
 use std::error::Error;
 use std::path::Path;
 use std::process::Command;
 use std::thread;
 use std::time::{Duration, Instant};
-use support::*;
 
 /// The files in `dir`, sorted.
 fn files(dir: &Path) -> Result<Vec<String>, Box<dyn Error>> {

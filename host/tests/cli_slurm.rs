@@ -9,7 +9,7 @@
 //! installed or the test is not root (the daemons need it); `STRAHL_REQUIRE_SLURM=1` (set by
 //! `.ci/run`, whose setup installs them) turns the skip into a failure.
 
-mod support;
+use crate::support;
 
 use std::error::Error;
 use std::path::{Path, PathBuf};

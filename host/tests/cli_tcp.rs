@@ -28,9 +28,7 @@ use strahl_core::wire::frame::{FrameReader, FrameWriter, LinkError, ReadEvent};
 use strahl_core::wire::message::{Hello, MasterMessage, WorkerMessage};
 use strahl_core::wire::{MAX_FRAME_LEN, PROTOCOL_VERSION};
 
-mod support;
-
-use support::*;
+use crate::support::*;
 
 /// What the proxy does to a connection once its byte budget from the worker is spent.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

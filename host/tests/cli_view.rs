@@ -4,8 +4,8 @@
 //! Skipped, with the reason printed, only where Chromium is not installed (`.ci/setup`
 //! installs it); `STRAHL_REQUIRE_BROWSER=1` (set by `.ci/run`) turns the skip into a failure.
 
-mod browser;
-mod support;
+use crate::browser;
+use crate::support;
 
 use browser::Browser;
 use std::error::Error;

@@ -6,8 +6,7 @@ use strahl_core::scene::camera::SeedCamera;
 use strahl_host::formats::config::{parse_config, read_config, Config};
 use strahl_host::formats::error::LoadError;
 
-mod common;
-use common::{assert_at, write};
+use crate::common::{assert_at, write};
 
 /// Parses `text` from a file and returns the error message, which must name `line`.
 fn error_at(text: &str, line: usize) -> String {

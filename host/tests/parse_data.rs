@@ -14,8 +14,7 @@ const HEAD: &str =
     "_SHD 0.1 0.2 0.3 0.4 0.5 0.6 0.7 0.8 0.9 20 0.5\n_LIGHT 1 2 3 0.5 0.6 0.7 0.8 1\n\
                     _PT 0 0 0\n_PT 1 0 0\n_PT 0 1 0\n";
 
-mod common;
-use common::{assert_at, write};
+use crate::common::{assert_at, write};
 
 /// Reads `text` from a file with `base` and returns the message, which must name `line`.
 fn error_at(text: &str, base: u32, line: usize) -> String {

@@ -1,7 +1,7 @@
 //! What the end-to-end tests of `strahl render` and `strahl worker` share: child processes
 //! whose stderr is collected (and which are killed when a test ends, even when it fails), the
 //! demo room at three sizes and its reference image, the per-worker table of a render's output,
-//! and a process's CPU time from `/proc`. Each test binary uses a part of it.
+//! and a process's CPU time from `/proc`. Each test file uses a part of it.
 #![allow(dead_code)]
 
 use std::collections::BTreeMap;
