@@ -43,29 +43,13 @@ mod parse_nff;
 mod parse_obj;
 mod view_server;
 
-/// Every `.rs` file of `host/tests/` is a module of this binary or a test target of its own in
-/// `host/Cargo.toml` (the package sets `autotests = false`, so cargo would not find a new file
-/// by itself).
+/// Every `.rs` file of `host/tests/` is compiled: a module of this binary or a test target of its
+/// own in `host/Cargo.toml` (`autotests = false`, so cargo would not find a new file by itself).
 #[test]
-fn every_test_file_is_compiled() -> support::TestResult {
+fn every_test_file_is_compiled() -> Result<(), Box<dyn std::error::Error>> {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
-    let declared = |name: &str| include_str!("main.rs").contains(&format!("\nmod {name};\n"));
-    let own_binary =
-        |name: &str| include_str!("../Cargo.toml").contains(&format!("\"tests/{name}.rs\""));
-    let mut left_out = Vec::new();
-    for entry in std::fs::read_dir(&dir)? {
-        let path = entry?.path();
-        let Some(name) = path.file_stem().and_then(|s| s.to_str()) else {
-            continue;
-        };
-        let is_rs = path.extension().is_some_and(|e| e == "rs");
-        if is_rs && name != "main" && !declared(name) && !own_binary(name) {
-            left_out.push(name.to_owned());
-        }
-    }
-    assert!(
-        left_out.is_empty(),
-        "not compiled into any test: {left_out:?}"
-    );
+    let (main_rs, manifest) = (include_str!("main.rs"), include_str!("../Cargo.toml"));
+    let left = strahl_core_tests::test_files::left_out(&dir, main_rs, manifest)?;
+    assert!(left.is_empty(), "not compiled into any test: {left:?}");
     Ok(())
 }

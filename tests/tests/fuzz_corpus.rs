@@ -4,7 +4,7 @@
 //! functions far longer (`docs/robustness.md`); this catches a regression in CI without
 //! nightly tooling.
 
-mod fuzz_entry;
+use crate::fuzz_entry;
 
 use proptest::prelude::*;
 use std::path::Path;

@@ -1,7 +1,7 @@
 //! Golden checksums of small renders: any change of pixels must be a conscious change.
 //!
 //! Each test renders a scene small and hashes its 8-bit image with FNV-1a. When a change of the
-//! image is intended, run with `STRAHL_PRINT_GOLDEN=1 cargo test -p strahl-tests --test golden
+//! image is intended, run with `STRAHL_PRINT_GOLDEN=1 cargo test -p strahl-tests golden::
 //! -- --nocapture`, look at the new image, and update the constant in the same commit.
 
 use std::path::Path;

@@ -1,0 +1,30 @@
+//! The cross-crate tests, in one binary: each file of `tests/tests/` is a module here, so cargo
+//! compiles and links them once rather than once per file (they link the host, its transports and
+//! the core). `fuzz_entry` holds the fuzzing entry points that `fuzz_corpus` and `fuzz/` share.
+//! The tests of all files run side by side, one per CPU.
+
+mod fuzz_entry;
+
+mod cluster_sim;
+mod fault_injection;
+mod fuzz_corpus;
+mod golden;
+mod hard_cases;
+mod layers;
+mod multisample;
+mod packets;
+mod pgo_record;
+mod pgo_wrapper;
+mod protocol_frames;
+mod protocol_worker;
+
+/// Every `.rs` file of `tests/tests/` is compiled: a module of this binary
+/// (`autotests = false`, so cargo would not find a new file by itself).
+#[test]
+fn every_test_file_is_compiled() -> Result<(), Box<dyn std::error::Error>> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
+    let (main_rs, manifest) = (include_str!("main.rs"), include_str!("../Cargo.toml"));
+    let left = strahl_core_tests::test_files::left_out(&dir, main_rs, manifest)?;
+    assert!(left.is_empty(), "not compiled into any test: {left:?}");
+    Ok(())
+}
