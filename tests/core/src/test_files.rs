@@ -5,6 +5,20 @@
 
 use std::path::Path;
 
+/// Fails, naming them, if files of `package_dir`'s `tests/` are [`left_out`] of the binary whose
+/// `main.rs` is `main_rs` and of the targets of `manifest`.
+pub fn check(package_dir: &str, main_rs: &str, manifest: &str) -> Result<(), String> {
+    let dir = Path::new(package_dir).join("tests");
+    match left_out(&dir, main_rs, manifest) {
+        Ok(left) if left.is_empty() => Ok(()),
+        Ok(left) => Err(format!(
+            "{}: not compiled into any test: {left:?}",
+            dir.display()
+        )),
+        Err(e) => Err(format!("{}: {e}", dir.display())),
+    }
+}
+
 /// The `.rs` files of `dir` (a package's `tests/`) that are neither `main.rs`, a module that
 /// `main_rs` (that file's text) declares as `mod NAME;` on a line of its own, nor a test target
 /// of its own in `manifest` (the package's `Cargo.toml`, naming `"tests/NAME.rs"`).
