@@ -23,6 +23,7 @@ mod cli_addresses;
 mod cli_auth;
 mod cli_bench_peers;
 mod cli_chaos;
+mod cli_destinations;
 mod cli_firmware;
 mod cli_flood;
 mod cli_formats;

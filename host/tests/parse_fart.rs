@@ -684,6 +684,10 @@ fn error_positions_and_messages() {
             "2:39: expected `reflectance` + `transparency` to be at most 1, found 0.6 + 0.6",
         ),
         (
+            "scene {\n  sphere { material { color <1e30, 1, 1> diffuse 1e30 } }\n}",
+            "2:12: expected a material whose `color` times `ambient` and `diffuse` stays within single precision (about 3.4e38)",
+        ),
+        (
             "scene {\n  sphere { material { ior 0 } }\n}",
             "2:27: expected a positive number after `ior`, found 0",
         ),

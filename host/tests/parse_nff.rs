@@ -332,6 +332,10 @@ fn bad_input_gives_exact_messages() {
             "bad.nff:8: `l`: `inf` is not a finite number",
         ),
         (
+            format!("{VIEW}{l}f 1e20 1 1 1e20 0 10 0 1\n"),
+            "bad.nff:9: `f`: the colour times Kd is beyond single precision (about 3.4e38)",
+        ),
+        (
             format!("{VIEW}l 1 2 3 4\n"),
             "bad.nff:8: `l`: expected 3 numbers (x y z) or 6 (x y z r g b), found 4",
         ),

@@ -64,6 +64,18 @@ pub fn shares_fit(reflection: f32, transparency: f32) -> bool {
 }
 
 impl Shader {
+    /// Whether every colour and number of the shader is finite. A reader checks it where it
+    /// can name the line (a colour times a factor may overflow); [`SceneDesc::validate`]
+    /// checks it for every scene.
+    pub fn is_finite(&self) -> bool {
+        [self.ambient, self.diffuse, self.specular]
+            .iter()
+            .all(|c| c.is_finite())
+            && [self.shininess, self.reflection, self.transparency, self.ior]
+                .iter()
+                .all(|x| x.is_finite())
+    }
+
     /// An opaque Phong shader with the seed's fields and the seed's [`Blend::Share`].
     pub fn phong(
         ambient: Vec3,

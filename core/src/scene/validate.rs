@@ -3,7 +3,7 @@
 
 use super::camera::Camera;
 use super::error::SceneError;
-use super::model::{shares_fit, SceneDesc, MAX_IMAGE_SIDE};
+use super::model::{shares_fit, SceneDesc, Shader, MAX_IMAGE_SIDE};
 use super::triangle_shading::MAX_SHADERS;
 use crate::geom::solid::{SolidNode, MAX_CSG_DEPTH};
 use alloc::vec::Vec;
@@ -64,15 +64,7 @@ impl SceneDesc {
         self.points.iter().all(|&p| finite(p))
             && self.normals.iter().all(|&n| finite(n))
             && self.solid_triangles.iter().flatten().all(|&p| finite(p))
-            && self.shaders.iter().all(|sh| {
-                finite(sh.ambient)
-                    && finite(sh.diffuse)
-                    && finite(sh.specular)
-                    && sh.shininess.is_finite()
-                    && sh.reflection.is_finite()
-                    && sh.transparency.is_finite()
-                    && sh.ior.is_finite()
-            })
+            && self.shaders.iter().all(Shader::is_finite)
             && self
                 .lights
                 .iter()

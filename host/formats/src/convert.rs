@@ -31,7 +31,7 @@
 use crate::config::{write_config, Config};
 use crate::crease::{split_creases, DEFAULT_CREASE_DEGREES};
 use crate::datafile::write_data_file;
-use crate::fs::{refuse_to_replace, write_text_atomically};
+use crate::fs::{refuse_to_replace, same_file, write_text_atomically};
 use crate::obj::{read_obj_file, ObjFile};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
@@ -249,14 +249,6 @@ pub fn convert_obj_with(
         config_file,
         warnings,
     })
-}
-
-/// Whether `a` and `b` name the same existing file.
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    }
 }
 
 /// The grey shader of faces without a material.

@@ -15,17 +15,101 @@ pub fn destination_folder(path: &Path) -> PathBuf {
     }
 }
 
-/// Writes a file through a temporary file in its folder that is renamed into place at the end:
-/// readers never see a partial file, and on any error nothing is left at `path` (an existing
-/// file there stays as it was).
+/// The file a write to `path` replaces: `path` itself, or the file a symbolic link there
+/// names (the link is kept, as a program writing through it would keep it). A file is written
+/// whole and moved into place, which would put a regular file in the place of a device, a
+/// pipe or a socket (as root, of `/dev/null`): those are refused.
 ///
 /// # Errors
-/// Any error of `write`, or an I/O error naming `path`.
+/// Why not, for a message after `path`: it (or the file its link names) is a folder, a device,
+/// a pipe or a socket, or a link to nothing.
+pub fn write_target(path: &Path) -> Result<PathBuf, String> {
+    let target = match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(path.to_path_buf()),
+        Err(e) => return Err(format!("cannot look at the file there ({e})")),
+        Ok(m) if m.file_type().is_symlink() => std::fs::canonicalize(path)
+            .map_err(|e| format!("it is a symbolic link to a file that cannot be reached ({e})"))?,
+        Ok(_) => path.to_path_buf(),
+    };
+    let meta =
+        std::fs::metadata(&target).map_err(|e| format!("cannot look at the file there ({e})"))?;
+    if meta.is_dir() {
+        return Err("it is a folder".to_string());
+    }
+    if !meta.is_file() {
+        return Err(
+            "it is not a regular file (a device, a pipe or a socket); Strahl writes a \
+                    whole new file and moves it into place, which would replace it"
+                .to_string(),
+        );
+    }
+    Ok(target)
+}
+
+/// True if a file written at `a` and one written at `b` would be the same file: the same
+/// existing file ([`same_file`]), or the same name in the same folder.
+pub fn same_destination(a: &Path, b: &Path) -> bool {
+    let place = |p: &Path| {
+        let target = write_target(p).ok()?;
+        let folder = std::fs::canonicalize(destination_folder(&target)).ok()?;
+        Some((folder, target.file_name()?.to_os_string()))
+    };
+    same_file(a, b) || matches!((place(a), place(b)), (Some(x), Some(y)) if x == y)
+}
+
+/// True if `a` and `b` are the same file, whatever the paths (links, `..`, hard links);
+/// false where either cannot be looked at.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        #[cfg(unix)]
+        (Ok(a), Ok(b)) => {
+            use std::os::unix::fs::MetadataExt as _;
+            (a.dev(), a.ino()) == (b.dev(), b.ino())
+        }
+        #[cfg(not(unix))]
+        (Ok(_), Ok(_)) => matches!(
+            (std::fs::canonicalize(a), std::fs::canonicalize(b)),
+            (Ok(a), Ok(b)) if a == b
+        ),
+        _ => false,
+    }
+}
+
+/// Refuses an output at `output` that is one of the files `inputs` a run read (its scene,
+/// data, mesh or material files): writing it would destroy what the run was made from.
+/// `what` names the output in the message ("the image", "the statistics").
+///
+/// # Errors
+/// The input `output` would replace, named.
+pub fn refuse_to_replace_input(
+    output: &Path,
+    inputs: &[PathBuf],
+    what: &str,
+) -> anyhow::Result<()> {
+    match inputs.iter().find(|input| same_file(output, input)) {
+        Some(input) => anyhow::bail!(
+            "{}: {what} would replace the input {}; choose another name",
+            output.display(),
+            input.display()
+        ),
+        None => Ok(()),
+    }
+}
+
+/// Writes a file through a temporary file in its folder that is renamed into place at the end:
+/// readers never see a partial file, and on any error nothing is left at `path` (an existing
+/// file there stays as it was). Where `path` is a symbolic link, the file it names is written
+/// ([`write_target`]).
+///
+/// # Errors
+/// Any error of `write`, a `path` that [`write_target`] refuses, or an I/O error naming
+/// `path`.
 pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<&mut std::fs::File>) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
-    let dir = destination_folder(path);
+    let target = write_target(path).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
+    let dir = destination_folder(&target);
     let mut builder = tempfile::Builder::new();
     builder.prefix(".strahl-").suffix(".tmp");
     #[cfg(unix)]
@@ -50,7 +134,7 @@ pub fn write_atomically(
     tmp.as_file()
         .sync_all()
         .with_context(|| format!("{}: cannot write", path.display()))?;
-    tmp.persist(path).map_err(|e| e.error).with_context(|| {
+    tmp.persist(&target).map_err(|e| e.error).with_context(|| {
         format!(
             "{}: cannot move the finished file into place",
             path.display()

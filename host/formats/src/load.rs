@@ -67,6 +67,12 @@ pub struct LoadedScene {
     pub config_path: PathBuf,
     /// The data file read (resolved against the configuration file's folder).
     pub data_path: PathBuf,
+    /// Every file read: the scene's, and its data, mesh and material files. No output may
+    /// replace one of them ([`crate::fs::refuse_to_replace_input`]).
+    pub inputs: Vec<PathBuf>,
+    /// Problems that did not stop loading, one sentence each, naming their file (a FART mesh's
+    /// `.mtl` file that cannot be read, a `usemtl` naming no material).
+    pub warnings: Vec<String>,
 }
 
 /// Reads the configuration file at `config_path`, applies `overrides`, reads the data file it
@@ -140,7 +146,9 @@ pub fn load_config_scene(
         desc,
         output,
         config_path: config_path.to_path_buf(),
+        inputs: vec![config_path.to_path_buf(), data_path.clone()],
         data_path,
+        warnings: Vec::new(),
     })
 }
 
@@ -217,9 +225,16 @@ pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, Loa
         path: path.to_path_buf(),
         message,
     })?;
+    let mut inputs = vec![path.to_path_buf()];
+    let mut warnings = Vec::new();
     let mut desc = match format {
         SceneFormat::SeedConfig => return load_config_scene(path, overrides),
-        SceneFormat::Fart => crate::fart::load_fart(path)?,
+        SceneFormat::Fart => {
+            let fart = crate::fart::read_fart(path)?;
+            inputs.extend(fart.files);
+            warnings = fart.warnings;
+            fart.desc
+        }
         SceneFormat::Nff => crate::nff::load_nff(path)?,
     };
     let file_error = |message: String| LoadError::File {
@@ -240,6 +255,8 @@ pub fn load_scene(path: &Path, overrides: &Overrides) -> Result<LoadedScene, Loa
         output,
         config_path: path.to_path_buf(),
         data_path: path.to_path_buf(),
+        inputs,
+        warnings,
     })
 }
 

@@ -564,9 +564,14 @@ impl<'a> Parser<'a> {
         let [r, g, b, kd, ks, shine, t, ior] = values.map(|n| n.value);
         let index = u32::try_from(self.desc.shaders.len())
             .map_err(|_| self.error(keyword.line, "`f`: too many materials"))?;
-        self.desc
-            .shaders
-            .push(shader_from_nff(Vec3::new(r, g, b), kd, ks, shine, t, ior));
+        let shader = shader_from_nff(Vec3::new(r, g, b), kd, ks, shine, t, ior);
+        if !shader.is_finite() {
+            return Err(self.error(
+                keyword.line,
+                "`f`: the colour times Kd is beyond single precision (about 3.4e38)",
+            ));
+        }
+        self.desc.shaders.push(shader);
         self.shader = Some(index);
         Ok(())
     }

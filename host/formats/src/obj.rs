@@ -107,6 +107,8 @@ pub struct ObjFile {
     /// Problems that do not stop loading, one sentence each: an `.mtl` file that cannot be read,
     /// a `usemtl` naming no known material.
     pub warnings: Vec<String>,
+    /// The `.mtl` files read.
+    pub material_files: Vec<PathBuf>,
 }
 
 /// Reads the geometry of the OBJ file at `path` (materials are not read).
@@ -459,6 +461,7 @@ impl<'p> Reader<'p> {
         for file in files {
             match std::fs::read(&file) {
                 Ok(bytes) => {
+                    self.file.material_files.push(file.clone());
                     for m in parse_mtl(&file, &bytes)? {
                         let index = self.file.materials.len() as u32;
                         self.material_names.insert(m.name.clone(), index);

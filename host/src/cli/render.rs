@@ -19,9 +19,11 @@ use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::region::Region;
 use crate::cluster::report::WorkerTable;
 use crate::cluster::report::{Activity, WorkerState};
-use crate::formats::fs::write_atomically;
+use crate::formats::fs::{
+    refuse_to_replace_input, same_destination, write_atomically, write_target,
+};
 use crate::formats::load::{load_scene, LoadedScene, Overrides, SceneFormat};
-use crate::output::{check_output_path, image_memory, write_image, ImageKind};
+use crate::output::{check_scene_output, image_memory, write_image, ImageKind};
 use crate::util::secret::{load_secret, Secret};
 use crate::util::usage::usage;
 use crate::view::events::Status;
@@ -181,12 +183,12 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
     }
 }
 
-/// Checks that `--stats-json FILE` can be written: its folder exists and takes a new file, and
-/// `FILE` is not a folder or a device.
+/// Checks that `--stats-json FILE` can be written: its folder exists and takes a new file,
+/// `FILE` is not a folder or a device, nor the image or a file the scene was loaded from.
 ///
 /// # Errors
 /// A message naming the path.
-fn check_stats_path(path: &std::path::Path) -> anyhow::Result<()> {
+fn check_stats_path(path: &std::path::Path, loaded: &LoadedScene) -> anyhow::Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -198,18 +200,16 @@ fn check_stats_path(path: &std::path::Path) -> anyhow::Result<()> {
             dir.display()
         );
     }
-    if path.is_dir() {
+    if let Err(why) = write_target(path) {
+        anyhow::bail!("{}: cannot write the statistics: {why}", path.display());
+    }
+    if same_destination(path, &loaded.output) {
         anyhow::bail!(
-            "{}: cannot write the statistics: it is a folder",
+            "{}: the statistics would replace the image; choose another name",
             path.display()
         );
     }
-    if path.exists() && !path.is_file() {
-        anyhow::bail!(
-            "{}: cannot write the statistics: it is not a regular file",
-            path.display()
-        );
-    }
+    refuse_to_replace_input(path, &loaded.inputs, "the statistics")?;
     // The file is written through a temporary file in the folder: try one now.
     tempfile::Builder::new()
         .prefix(".strahl-")
@@ -538,7 +538,7 @@ fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
         ));
     }
     let loaded = load_scene(&args.config, &args.overrides())?;
-    let kind = check_output_path(&loaded.output, args.format)?;
+    let kind = check_scene_output(&loaded, args.format)?;
     if let Some(r) = args.region {
         let s = &loaded.desc.settings;
         r.check(s.width, s.height).map_err(usage)?;
@@ -546,7 +546,7 @@ fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
     let secret = load_secret(args.cluster.secret_file.as_deref())?;
     check_image_memory(&loaded, kind, crate::util::sys::available_memory())?;
     if let Some(stats) = &args.stats_json {
-        check_stats_path(stats)?;
+        check_stats_path(stats, &loaded)?;
     }
     Ok(Checked {
         loaded,
@@ -949,6 +949,9 @@ fn warn_about_scene(
     prepared: &PreparedScene,
     warn: &dyn Fn(&str),
 ) {
+    for warning in &loaded.warnings {
+        warn(warning);
+    }
     let scene = &prepared.scene;
     if scene.degenerate_triangles > 0 {
         warn(&format!(
@@ -1003,6 +1006,8 @@ mod tests {
             output: "out.bmp".into(),
             config_path: "raytracer.cfg".into(),
             data_path: "ROOM.txt".into(),
+            inputs: vec!["raytracer.cfg".into(), "ROOM.txt".into()],
+            warnings: Vec::new(),
         };
         let need = image_memory(ImageKind::Bmp, 32768, 32768);
         assert_eq!(need, 6_442_450_944, "BMP is written row by row: no copy");

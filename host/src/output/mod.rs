@@ -13,7 +13,10 @@
 
 mod rows;
 
-use crate::formats::fs::{destination_folder, write_atomically};
+use crate::formats::fs::{
+    destination_folder, refuse_to_replace_input, write_atomically, write_target,
+};
+use crate::formats::load::LoadedScene;
 use crate::util::usage::usage;
 use anyhow::{bail, Context as _};
 use std::io::Write as _;
@@ -121,7 +124,8 @@ pub fn image_kind(path: &Path, format: Option<ImageKind>) -> anyhow::Result<Imag
 }
 
 /// Checks, before rendering, that an image can be written to `path`: a known extension, an
-/// existing destination folder that takes a new file, and no folder of that name.
+/// existing destination folder that takes a new file, and nothing there but a regular file
+/// (or a link to one: [`write_target`]).
 ///
 /// # Errors
 /// A message naming the path and what is wrong with it.
@@ -130,7 +134,9 @@ pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Resu
     if is_stdout(path) {
         return Ok(kind);
     }
-    let dir = destination_folder(path);
+    let target = write_target(path)
+        .map_err(|why| anyhow::anyhow!("{}: cannot write the image: {why}", path.display()))?;
+    let dir = destination_folder(&target);
     match std::fs::metadata(&dir) {
         Ok(m) if m.is_dir() => {}
         Ok(_) => bail!(
@@ -144,9 +150,6 @@ pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Resu
             dir.display()
         ),
     }
-    if path.is_dir() {
-        bail!("{}: cannot write the image: it is a folder", path.display());
-    }
     // The image is written through a temporary file in the folder: try one now.
     tempfile::Builder::new()
         .prefix(".strahl-")
@@ -159,6 +162,22 @@ pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Resu
                 dir.display()
             )
         })?;
+    Ok(kind)
+}
+
+/// [`check_output_path`] for the image of `loaded`, which must not replace a file the scene was
+/// loaded from ([`refuse_to_replace_input`]).
+///
+/// # Errors
+/// As [`check_output_path`], and the input the image would replace.
+pub fn check_scene_output(
+    loaded: &LoadedScene,
+    format: Option<ImageKind>,
+) -> anyhow::Result<ImageKind> {
+    let kind = check_output_path(&loaded.output, format)?;
+    if !is_stdout(&loaded.output) {
+        refuse_to_replace_input(&loaded.output, &loaded.inputs, "the image")?;
+    }
     Ok(kind)
 }
 

@@ -15,7 +15,7 @@ use crate::cluster::local::MAX_WORKERS;
 use crate::cluster::master::{run_master_with, Hooks};
 use crate::cluster::prepared::PreparedScene;
 use crate::formats::load::{load_scene, LoadedScene, Overrides};
-use crate::output::{check_output_path, write_image};
+use crate::output::{check_scene_output, write_image};
 use anyhow::anyhow;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -122,7 +122,7 @@ impl Renders {
         stop: &AtomicBool,
     ) -> anyhow::Result<String> {
         let loaded = self.load(settings)?;
-        let kind = check_output_path(&loaded.output, None)?;
+        let kind = check_scene_output(&loaded, None)?;
         let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default())
             .map_err(|e| anyhow!("{}: {e}", loaded.data_path.display()))?;
         let s = prepared.scene.settings;

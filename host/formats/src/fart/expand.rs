@@ -21,7 +21,7 @@ use super::parser::{
     SettingValue, SettingsBlock, ShapeAst, ShapeItem, ShapeItemKind, ShapeKind, Stmt,
     TransformKind, UnaryOp, FUNCTIONS,
 };
-use super::{FartError, Pos};
+use super::{FartError, FartScene, Pos};
 use crate::error::LoadError;
 use crate::mesh::append_mesh;
 use crate::obj::{read_obj_file, ObjMaterial, ObjMesh, ObjTriangle};
@@ -59,18 +59,20 @@ pub const DEFAULT_MATERIAL: Shader = Shader {
 };
 
 /// Runs `scene`, read from `path` (the base for mesh files), and returns its description (not
-/// yet validated).
+/// yet validated) with the mesh files read and their warnings.
 ///
 /// # Errors
 /// [`LoadError::AtColumn`] for any problem at a place in the file, the OBJ reader's error for a
 /// bad mesh file.
-pub fn expand(scene: &SceneAst, path: &Path) -> Result<SceneDesc, LoadError> {
+pub fn expand(scene: &SceneAst, path: &Path) -> Result<FartScene, LoadError> {
     let mut x = Expander {
         folder: path.parent().map(Path::to_path_buf).unwrap_or_default(),
         scopes: vec![HashMap::new()],
         desc: SceneDesc::default(),
         shader_ids: HashMap::new(),
         meshes: HashMap::new(),
+        files: Vec::new(),
+        warnings: Vec::new(),
         camera: None,
         options: None,
         shapes: 0,
@@ -81,7 +83,11 @@ pub fn expand(scene: &SceneAst, path: &Path) -> Result<SceneDesc, LoadError> {
         Fail::At(e) => e.at(path),
         Fail::Load(e) => e,
     })?;
-    Ok(x.desc)
+    Ok(FartScene {
+        desc: x.desc,
+        files: x.files,
+        warnings: x.warnings,
+    })
 }
 
 /// Why expansion stopped.
@@ -311,6 +317,9 @@ struct Expander {
     desc: SceneDesc,
     shader_ids: HashMap<[u32; 15], u32>,
     meshes: HashMap<PathBuf, Rc<MeshVal>>,
+    /// The mesh files and their `.mtl` files read, in order, and their warnings.
+    files: Vec<PathBuf>,
+    warnings: Vec<String>,
     camera: Option<Pos>,
     options: Option<Pos>,
     shapes: u64,
@@ -869,7 +878,7 @@ impl Expander {
             );
         }
         let ior = self.ior_setting(&k)?;
-        Ok(Shader {
+        let shader = Shader {
             ambient: color * ambient,
             diffuse: color * diffuse,
             specular: Vec3::splat(specular),
@@ -879,7 +888,15 @@ impl Expander {
             ior,
             // FART keeps the seed's rule: the shares split the colour.
             blend: Blend::Share,
-        })
+        };
+        if !shader.is_finite() {
+            return err(
+                b.pos,
+                "expected a material whose `color` times `ambient` and `diffuse` stays within \
+                 single precision (about 3.4e38)",
+            );
+        }
+        Ok(shader)
     }
 
     /// The material defined as `name`.
@@ -1277,6 +1294,9 @@ impl Expander {
                 })
                 .collect()
         };
+        self.files.push(path.clone());
+        self.files.extend(file.material_files);
+        self.warnings.extend(file.warnings);
         let mesh = Rc::new(MeshVal {
             mesh: file.mesh,
             mtl,

@@ -20,7 +20,7 @@ pub mod lexer;
 pub mod parser;
 
 use crate::error::LoadError;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use strahl_core::scene::SceneDesc;
 
 /// A place in the source: 1-based line and column (in characters).
@@ -61,6 +61,26 @@ impl FartError {
     }
 }
 
+/// A `.fart` scene loaded, with the files it read besides itself and what it warns about.
+#[derive(Clone, Debug)]
+pub struct FartScene {
+    /// The scene, validated.
+    pub desc: SceneDesc,
+    /// The mesh files (`mesh { file ... }`) and their `.mtl` files read, in order.
+    pub files: Vec<PathBuf>,
+    /// Problems of the mesh files that do not stop loading (`.mtl` files that cannot be read,
+    /// `usemtl` naming no material), one sentence each, naming the file.
+    pub warnings: Vec<String>,
+}
+
+/// Reads and loads the `.fart` file at `path` ([`read_fart`]), the scene alone.
+///
+/// # Errors
+/// As [`read_fart`].
+pub fn load_fart(path: &Path) -> Result<SceneDesc, LoadError> {
+    read_fart(path).map(|scene| scene.desc)
+}
+
 /// Reads and loads the `.fart` file at `path`; mesh files it names are read relative to its
 /// folder.
 ///
@@ -68,7 +88,7 @@ impl FartError {
 /// [`LoadError::Io`] if the file cannot be read, [`LoadError::AtColumn`] for a problem at a place
 /// in it (or [`LoadError::At`] for one in an OBJ file it names), [`LoadError::File`] if the
 /// assembled scene fails validation.
-pub fn load_fart(path: &Path) -> Result<SceneDesc, LoadError> {
+pub fn read_fart(path: &Path) -> Result<FartScene, LoadError> {
     let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
         path: path.to_path_buf(),
         source,
@@ -88,21 +108,26 @@ pub fn load_fart(path: &Path) -> Result<SceneDesc, LoadError> {
             });
         }
     };
-    load_fart_source(path, &source)
+    fart_source(path, &source)
 }
 
 /// Loads `.fart` text `source` as if read from `path` (which names the file in messages and is
-/// the base for mesh files).
+/// the base for mesh files), the scene alone.
 ///
 /// # Errors
 /// As [`load_fart`], without the reading.
 pub fn load_fart_source(path: &Path, source: &str) -> Result<SceneDesc, LoadError> {
+    fart_source(path, source).map(|scene| scene.desc)
+}
+
+/// [`load_fart_source`] with the files read and the warnings.
+fn fart_source(path: &Path, source: &str) -> Result<FartScene, LoadError> {
     let tokens = lexer::tokenize(source).map_err(|e| e.at(path))?;
     let ast = parser::parse(&tokens).map_err(|e| e.at(path))?;
-    let desc = expand::expand(&ast, path)?;
-    desc.validate().map_err(|e| LoadError::File {
+    let scene = expand::expand(&ast, path)?;
+    scene.desc.validate().map_err(|e| LoadError::File {
         path: path.to_path_buf(),
         message: e.to_string(),
     })?;
-    Ok(desc)
+    Ok(scene)
 }
