@@ -281,6 +281,26 @@ fn usage_errors_exit_2() -> TestResult {
 }
 
 #[test]
+fn a_workers_name_is_not_empty_and_holds_no_control_characters() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    for (name, says) in [
+        ("", "must not be empty"),
+        (
+            "ev\u{1b}[31mil",
+            "`ev\\u{1b}[31mil` holds control characters",
+        ),
+        ("tab\there", "holds control characters"),
+    ] {
+        let args = ["worker", "--connect", "127.0.0.1:9", "--name", name];
+        let out = strahl(dir.path(), &args)?;
+        assert_eq!(out.status.code(), Some(2), "{name:?}: {}", stderr(&out));
+        assert!(stderr(&out).contains(says), "{name:?}: {}", stderr(&out));
+        assert!(!stderr(&out).contains('\u{1b}'), "{:?}", stderr(&out));
+    }
+    Ok(())
+}
+
+#[test]
 fn no_worker_at_all_is_an_error() -> TestResult {
     let dir = scene_dir(CONFIG, DATA)?;
     let out = render(dir.path(), &["--workers", "0"])?;

@@ -689,13 +689,15 @@ fn worker_refuses_a_master_of_another_protocol_version() -> TestResult {
     Ok(())
 }
 
-#[test]
-fn master_refuses_a_worker_of_another_protocol_version() -> TestResult {
+/// The thread of a [`fake_worker`]: the master's protocol version, or what went wrong.
+type FakeWorker = thread::JoinHandle<Result<u32, String>>;
+
+/// A fake worker listening on a free port of 127.0.0.1: answers the master's `Hello` with
+/// `mine`, then waits for the master to hang up. Its address, and its thread.
+fn fake_worker(mine: Hello<'static>) -> Result<(String, FakeWorker), Box<dyn Error>> {
     let listener = TcpListener::bind("127.0.0.1:0")?;
     listener.set_nonblocking(true)?;
     let address = listener.local_addr()?.to_string();
-    // A fake worker: answers the master's Hello with a Hello of the next version, then waits for
-    // the master to hang up. Returns the master's version.
     let fake = thread::spawn(move || -> Result<u32, String> {
         let deadline = Instant::now() + Duration::from_secs(30);
         let stream = loop {
@@ -712,13 +714,17 @@ fn master_refuses_a_worker_of_another_protocol_version() -> TestResult {
             Ok(MasterMessage::Hello(h)) => h.version,
             other => return Err(format!("expected the master's Hello, got {other:?}")),
         };
-        let mine = hello(PROTOCOL_VERSION + 1, "future");
         raw.send(&worker_frame(&WorkerMessage::Hello(mine))?, None)
             .map_err(|e| e.to_string())?;
         while raw.next()?.is_some() {}
         Ok(version)
     });
+    Ok((address, fake))
+}
 
+#[test]
+fn master_refuses_a_worker_of_another_protocol_version() -> TestResult {
+    let (address, fake) = fake_worker(hello(PROTOCOL_VERSION + 1, "future"))?;
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let r = render(SMALL, &out, &["--workers", "0", "--worker", &address])?;
@@ -734,6 +740,53 @@ fn master_refuses_a_worker_of_another_protocol_version() -> TestResult {
     );
     assert!(r.stderr.contains("error: "), "{}", r.stderr);
     assert!(listing(dir.path())?.is_empty(), "{:?}", listing(dir.path()));
+    Ok(())
+}
+
+#[test]
+fn master_refuses_a_hello_of_no_threads_or_with_control_characters() -> TestResult {
+    let no_threads = Hello {
+        threads: 0,
+        ..hello(PROTOCOL_VERSION, "idle")
+    };
+    let colours = Hello {
+        threads: 1,
+        ..hello(PROTOCOL_VERSION, "ev\u{1b}[31mil\u{7}")
+    };
+    let strange_arch = Hello {
+        threads: 1,
+        arch: "x86\r\u{8}",
+        ..hello(PROTOCOL_VERSION, "plain")
+    };
+    for (mine, says) in [
+        (no_threads, "renders 0 lines at once"),
+        (
+            colours,
+            "its name `ev\\u{1b}[31mil\\u{7}` holds control characters",
+        ),
+        (
+            strange_arch,
+            "its architecture `x86\\r\\u{8}` holds control characters",
+        ),
+    ] {
+        let (address, fake) = fake_worker(mine)?;
+        let dir = tempfile::tempdir()?;
+        let out = dir.path().join("out.bmp");
+        let r = render(SMALL, &out, &["--workers", "0", "--worker", &address])?;
+        fake.join().map_err(|_| "the fake worker panicked")??;
+        assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+        assert!(
+            r.stderr.contains(says),
+            "expected `{says}` in:\n{}",
+            r.stderr
+        );
+        assert!(
+            !r.stderr.contains(['\u{1b}', '\u{7}', '\u{8}', '\r']),
+            "no control character reaches the terminal:\n{:?}",
+            r.stderr
+        );
+        assert!(listing(dir.path())?.is_empty(), "{:?}", listing(dir.path()));
+    }
     Ok(())
 }
 

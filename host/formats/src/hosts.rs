@@ -56,13 +56,7 @@ pub fn parse_hosts(text: &str, path: &Path) -> Result<Vec<HostEntry>, LoadError>
             Some((h, _)) => h.trim_start_matches('[').trim_end_matches(']').to_string(),
             None => endpoint.clone(),
         };
-        // A host goes into launch commands: only what host names and addresses are made of.
-        if let Some(c) = host.chars().find(|&c| !is_host_char(c)) {
-            return Err(at(format!(
-                "`{host}` is not a host name or address (`{}` is not allowed in one)",
-                c.escape_default()
-            )));
-        }
+        check_host(&host).map_err(at)?;
         hosts.push(HostEntry {
             endpoint,
             host,
@@ -70,6 +64,54 @@ pub fn parse_hosts(text: &str, path: &Path) -> Result<Vec<HostEntry>, LoadError>
         });
     }
     Ok(hosts)
+}
+
+/// The longest host name (RFC 1035: 253 characters written out, labels of at most 63).
+const MAX_NAME: usize = 253;
+const MAX_LABEL: usize = 63;
+
+/// Checks that `host` can only be a host name or address. A host goes into launch commands
+/// (`ssh {host} ...`): only what names and addresses are made of, and no leading `-`, which a
+/// command would read as an option.
+fn check_host(host: &str) -> Result<(), String> {
+    let shown = shortened(host);
+    if let Some(c) = host.chars().find(|&c| !is_host_char(c)) {
+        return Err(format!(
+            "`{shown}` is not a host name or address (`{}` is not allowed in one)",
+            c.escape_default()
+        ));
+    }
+    if host.starts_with('-') {
+        return Err(format!(
+            "`{shown}` is not a host name or address (it must not start with `-`, which a \
+             launch command would read as an option)"
+        ));
+    }
+    if host.len() > MAX_NAME {
+        return Err(format!(
+            "`{shown}` is not a host name: {} characters, at most {MAX_NAME}",
+            host.len()
+        ));
+    }
+    if !host.contains(':') {
+        if let Some(label) = host.split('.').find(|l| l.len() > MAX_LABEL) {
+            return Err(format!(
+                "`{shown}` is not a host name: its part `{}` has {} characters, at most \
+                 {MAX_LABEL}",
+                shortened(label),
+                label.len()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `text` for a message: its first 40 characters and `...` where it is longer.
+fn shortened(text: &str) -> String {
+    match text.char_indices().nth(40) {
+        Some((end, _)) => format!("{}...", &text[..end]),
+        None => text.to_string(),
+    }
 }
 
 /// Letters, digits, `.`, `-`, `_` and, in IPv6 addresses, `:` and `%` (a zone).
@@ -94,6 +136,37 @@ mod tests {
                 "{message}"
             );
         }
+    }
+
+    #[test]
+    fn options_and_overlong_names_are_refused_and_shortened() {
+        let long_label = "a".repeat(64);
+        let long_name = ["b", "c", "d", "e", "k"].map(|c| c.repeat(60)).join(".");
+        let huge = "f".repeat(5000);
+        for (bad, says) in [
+            ("-G", "must not start with `-`"),
+            ("-oProxy:22", "must not start with `-`"),
+            (long_label.as_str(), "at most 63"),
+            (long_name.as_str(), "at most 253"),
+            (huge.as_str(), "at most 253"),
+        ] {
+            let err = parse_hosts(&format!("ok\n{bad}\n"), Path::new("h.txt"));
+            let Err(LoadError::At { line, message, .. }) = err else {
+                panic!("{bad}: {err:?}");
+            };
+            assert_eq!(line, 2, "{bad}");
+            assert!(message.contains(says), "{bad}: {message}");
+            assert!(message.len() < 200, "shortened: {message}");
+        }
+        let fits = [
+            "g".repeat(63),
+            "h".repeat(63),
+            "i".repeat(63),
+            "j".repeat(61),
+        ]
+        .join(".");
+        assert_eq!(fits.len(), 253);
+        assert!(parse_hosts(&format!("{fits}\nnode-1\n"), Path::new("h.txt")).is_ok());
     }
 
     #[test]

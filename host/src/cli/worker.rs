@@ -45,7 +45,7 @@ pub struct WorkerArgs {
     pub baud: u32,
 
     /// The name this worker gives masters [default: the host name].
-    #[arg(long, value_name = "NAME")]
+    #[arg(long, value_name = "NAME", value_parser = worker_name)]
     pub name: Option<String>,
 
     /// Memory in MiB this worker gives a scene; larger scenes are refused [default: the memory
@@ -168,6 +168,24 @@ fn serve_listening(
         },
     )
     .with_context(|| format!("accepting on {addr}"))
+}
+
+/// Parses `--name`: not empty, and no control characters (masters show it on their terminal
+/// and refuse a `Hello` that holds any).
+///
+/// # Errors
+/// A message saying which.
+fn worker_name(s: &str) -> Result<String, String> {
+    if s.is_empty() {
+        return Err("a worker's name must not be empty".to_string());
+    }
+    if s.chars().any(char::is_control) {
+        return Err(format!(
+            "`{}` holds control characters, which a worker's name must not",
+            s.escape_default()
+        ));
+    }
+    Ok(s.to_string())
 }
 
 /// Runs `strahl worker`.

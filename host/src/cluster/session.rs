@@ -462,14 +462,13 @@ impl<'a> Session<'a> {
                 threads,
                 nonce,
                 proof,
-            } => {
-                let peer = &mut self.peers[id];
-                if peer.state == State::Greeting {
-                    (peer.report.name, peer.report.arch) = (name, arch);
-                    peer.report.threads = threads.max(1);
-                }
-                self.on_hello(id, version, (nonce, proof), now, wire);
-            }
+            } => self.on_hello(
+                id,
+                (version, name, arch, threads),
+                (nonce, proof),
+                now,
+                wire,
+            ),
             Incoming::NeedScene {
                 job: j,
                 offset,
@@ -537,12 +536,12 @@ impl<'a> Session<'a> {
         }
     }
 
-    /// A worker's `Hello` (its name, architecture and threads are taken): the version, then
-    /// the secret, then the job.
+    /// A worker's `Hello`: its version, then its name, architecture and threads
+    /// ([`hello_fault`]), which are taken, then its proof of the secret, then the job.
     fn on_hello(
         &mut self,
         id: usize,
-        version: u32,
+        (version, name, arch, threads): (u32, String, String, u32),
         (nonce, proof): (Nonce, Option<Proof>),
         now: Instant,
         wire: &mut dyn Wire,
@@ -560,6 +559,11 @@ impl<'a> Session<'a> {
                 wire,
             );
         }
+        if let Some(fault) = hello_fault(&name, &arch, threads) {
+            return self.lose(id, fault, wire);
+        }
+        let report = &mut self.peers[id].report;
+        (report.name, report.arch, report.threads) = (name, arch, threads);
         if let Err((rejection, reason)) = self.authenticate(id, &nonce, proof.as_ref(), wire) {
             return self.reject(id, rejection, reason, wire);
         }
@@ -1161,6 +1165,25 @@ pub fn refusal_text(reason: Refusal) -> String {
         Refusal::BadMask => "a refine request did not fit the scene".to_string(),
         Refusal::Unauthenticated => "the master did not prove the shared secret".to_string(),
     }
+}
+
+/// What is wrong with a worker's `Hello` that names it `name` on `arch` and renders `threads`
+/// lines at once, if anything: the protocol asks for at least one thread, and the name and
+/// architecture are shown in the master's table and messages, where a control character would
+/// move the cursor, ring or recolour the operator's terminal.
+fn hello_fault(name: &str, arch: &str, threads: u32) -> Option<String> {
+    if threads == 0 {
+        return Some("its Hello says it renders 0 lines at once (at least 1)".to_string());
+    }
+    [("name", name), ("architecture", arch)]
+        .into_iter()
+        .find(|(_, text)| text.chars().any(char::is_control))
+        .map(|(what, text)| {
+            format!(
+                "its {what} `{}` holds control characters",
+                text.escape_default()
+            )
+        })
 }
 
 #[cfg(test)]
