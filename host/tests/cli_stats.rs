@@ -338,3 +338,24 @@ fn sphere_groups_are_reported_beside_the_octree() -> TestResult {
     assert!(groups >= 392, "{s:#}");
     Ok(())
 }
+
+#[test]
+fn a_dash_writes_the_statistics_to_standard_output_unless_the_image_goes_there() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = render_room(dir.path(), &["-o", "room.bmp", "--stats-json", "-"])?;
+    assert_success(&out);
+    let json: Value = serde_json::from_slice(&out.stdout)?;
+    assert_eq!(uint(&json, &["width"]), 64);
+    assert!(dir.path().join("room.bmp").is_file());
+    assert!(!dir.path().join("-").exists(), "no file named `-`");
+
+    let out = render_room(dir.path(), &["-o", "-", "--stats-json", "-"])?;
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("both write to standard output"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(out.stdout.is_empty(), "nothing rendered");
+    Ok(())
+}

@@ -520,3 +520,39 @@ fn a_concave_face_is_cut_into_ears_and_a_convex_one_fanned() {
     let fanned: Vec<[u32; 3]> = quad.iter().map(|t| t.points).collect();
     assert_eq!(fanned, vec![[0, 1, 2], [0, 2, 5]]);
 }
+
+#[test]
+fn convert_never_replaces_its_obj_or_mtl_nor_a_folder_and_names_no_temporary_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    for name in ["cube_normals.obj", "cube.mtl"] {
+        std::fs::copy(fixture(name), d.join(name)).expect("copied");
+    }
+    let obj = d.join("cube_normals.obj");
+    let forced = ConvertOptions {
+        force: true,
+        ..ConvertOptions::default()
+    };
+    for name in ["cube_normals.obj", "cube.mtl"] {
+        let before = std::fs::read(d.join(name)).expect("read");
+        let err = convert_obj_with(&obj, &d.join(name), &forced).expect_err(name);
+        assert!(
+            err.to_string().contains("would replace the input"),
+            "{name}: {err}"
+        );
+        assert_eq!(std::fs::read(d.join(name)).expect("read"), before, "{name}");
+    }
+    std::fs::create_dir(d.join("folder.txt")).expect("folder");
+    let err = convert_obj_with(&obj, &d.join("folder.txt"), &forced).expect_err("a folder");
+    assert!(
+        err.to_string().ends_with("folder.txt: it is a folder"),
+        "{err}"
+    );
+    let err = convert_obj(&obj, &d.join("missing/x.txt")).expect_err("no folder");
+    let text = format!("{err:#}");
+    assert!(text.contains("does not exist"), "{text}");
+    assert!(
+        !text.contains(".strahl-"),
+        "no temporary file named: {text}"
+    );
+}

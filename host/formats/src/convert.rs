@@ -31,7 +31,7 @@
 use crate::config::{write_config, Config};
 use crate::crease::{split_creases, DEFAULT_CREASE_DEGREES};
 use crate::datafile::write_data_file;
-use crate::fs::{refuse_to_replace, same_file, write_text_atomically};
+use crate::fs::{refuse_to_replace, refuse_to_replace_input, write_text_atomically};
 use crate::obj::{read_obj_file, ObjFile};
 use anyhow::{bail, Context as _};
 use glam::Vec3;
@@ -162,8 +162,9 @@ impl fmt::Display for ConvertSummary {
 ///
 /// # Errors
 /// An unreadable or bad OBJ file or `.mtl` line (naming the file and line), an output name that
-/// the configuration file cannot name (not UTF-8, a line break, `raytracer.cfg` itself, the
-/// input file), or a file that cannot be written.
+/// the configuration file cannot name (not UTF-8, a line break, `raytracer.cfg` itself), an
+/// output (or the configuration file) that would replace the OBJ or one of its `.mtl` files,
+/// or a file that cannot be written.
 pub fn convert_obj(input: &Path, output: &Path) -> anyhow::Result<ConvertSummary> {
     convert_obj_with(input, output, &ConvertOptions::default())
 }
@@ -200,12 +201,6 @@ pub fn convert_obj_with(
             output.display()
         );
     }
-    if same_file(input, output) {
-        bail!(
-            "{}: the output would replace the input; choose another name",
-            output.display()
-        );
-    }
     let folder = match output.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -213,6 +208,12 @@ pub fn convert_obj_with(
     let config_file = folder.join("raytracer.cfg");
 
     let obj = read_obj_file(input)?;
+    let inputs: Vec<PathBuf> = std::iter::once(input.to_path_buf())
+        .chain(obj.material_files.iter().cloned())
+        .collect();
+    for written in [output, &config_file] {
+        refuse_to_replace_input(written, &inputs, "the output")?;
+    }
     refuse_to_replace(&[output, &config_file], options.force)?;
     let (desc, camera, mut warnings) = framed_scene(&obj, options);
     warnings.splice(0..0, obj.warnings.iter().cloned());

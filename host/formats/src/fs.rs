@@ -96,6 +96,33 @@ pub fn refuse_to_replace_input(
     }
 }
 
+/// A temporary file in `dir`, as [`write_atomically`] makes one (`.strahl-*.tmp`, removed
+/// when dropped).
+///
+/// # Errors
+/// Why not, for a message after the path the user named: the error's kind alone, since
+/// tempfile's error names the temporary file, which the user never asked for.
+pub fn temporary_file_in(dir: &Path) -> Result<tempfile::NamedTempFile, String> {
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".strahl-").suffix(".tmp");
+    #[cfg(unix)]
+    {
+        // Like any new file: readable by all, subject to the umask (tempfile defaults to 0600).
+        use std::os::unix::fs::PermissionsExt as _;
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    builder.tempfile_in(dir).map_err(|e| {
+        // tempfile's message is the OS's error followed by ` at path "…"`, the temporary file.
+        let text = e.to_string();
+        let cause = text.split(" at path ").next().unwrap_or(&text);
+        if dir.is_dir() {
+            format!("folder {} takes no new file ({cause})", dir.display())
+        } else {
+            format!("folder {} does not exist ({cause})", dir.display())
+        }
+    })
+}
+
 /// Writes a file through a temporary file in its folder that is renamed into place at the end:
 /// readers never see a partial file, and on any error nothing is left at `path` (an existing
 /// file there stays as it was). Where `path` is a symbolic link, the file it names is written
@@ -110,21 +137,8 @@ pub fn write_atomically(
 ) -> anyhow::Result<()> {
     let target = write_target(path).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
     let dir = destination_folder(&target);
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".strahl-").suffix(".tmp");
-    #[cfg(unix)]
-    {
-        // Like any new file: readable by all, subject to the umask (tempfile defaults to 0600).
-        use std::os::unix::fs::PermissionsExt as _;
-        builder.permissions(std::fs::Permissions::from_mode(0o666));
-    }
-    let mut tmp = builder.tempfile_in(&dir).with_context(|| {
-        format!(
-            "{}: cannot create a temporary file in {}",
-            path.display(),
-            dir.display()
-        )
-    })?;
+    let mut tmp =
+        temporary_file_in(&dir).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
         write(&mut w)?;
@@ -155,11 +169,16 @@ pub fn write_text_atomically(path: &Path, text: &str) -> anyhow::Result<()> {
 }
 
 /// Refuses, unless `force`, to replace any of `paths` that is there already: no command
-/// replaces a file it did not write in the same run unless asked (`--force`).
+/// replaces a file it did not write in the same run unless asked (`--force`). Nor, even
+/// with it, what [`write_target`] refuses (a folder, a device, a pipe, a socket).
 ///
 /// # Errors
-/// The first file that is there, named, with the option that replaces it.
+/// The first file that is there, named, with the option that replaces it, or the first that
+/// cannot be replaced, named, with why.
 pub fn refuse_to_replace(paths: &[&Path], force: bool) -> anyhow::Result<()> {
+    for path in paths {
+        write_target(path).map_err(|why| anyhow::anyhow!("{}: {why}", path.display()))?;
+    }
     match paths.iter().find(|p| !force && p.exists()) {
         Some(there) => anyhow::bail!(
             "{}: the file is there already and is not replaced; give --force to replace it, or \

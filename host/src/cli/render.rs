@@ -20,10 +20,10 @@ use crate::cluster::region::Region;
 use crate::cluster::report::WorkerTable;
 use crate::cluster::report::{Activity, WorkerState};
 use crate::formats::fs::{
-    refuse_to_replace_input, same_destination, write_atomically, write_target,
+    refuse_to_replace_input, same_destination, temporary_file_in, write_atomically, write_target,
 };
 use crate::formats::load::{load_scene, LoadedScene, Overrides, SceneFormat};
-use crate::output::{check_scene_output, image_memory, write_image, ImageKind};
+use crate::output::{check_scene_output, image_memory, is_stdout, write_image, ImageKind};
 use crate::util::secret::{load_secret, Secret};
 use crate::util::usage::usage;
 use crate::view::events::Status;
@@ -104,7 +104,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "on|off", value_parser = parse_switch)]
     pub skip_effects: Option<bool>,
 
-    /// Also write the render's statistics (times, rays by kind, workers) as JSON to FILE.
+    /// Also write the render's statistics (times, rays by kind, workers) as JSON to FILE (`-`:
+    /// standard output, unless the image goes there).
     #[arg(long, value_name = "FILE")]
     pub stats_json: Option<PathBuf>,
 
@@ -184,11 +185,20 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
 }
 
 /// Checks that `--stats-json FILE` can be written: its folder exists and takes a new file,
-/// `FILE` is not a folder or a device, nor the image or a file the scene was loaded from.
+/// `FILE` is not a folder or a device, nor the image or a file the scene was loaded from; or
+/// `FILE` is `-` (standard output) and the image goes elsewhere.
 ///
 /// # Errors
-/// A message naming the path.
+/// A message naming the path; a usage error for both on standard output.
 fn check_stats_path(path: &std::path::Path, loaded: &LoadedScene) -> anyhow::Result<()> {
+    if is_stdout(path) {
+        if is_stdout(&loaded.output) {
+            return Err(usage(
+                "--stats-json - and -o - both write to standard output; name a file for one",
+            ));
+        }
+        return Ok(());
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -211,11 +221,8 @@ fn check_stats_path(path: &std::path::Path, loaded: &LoadedScene) -> anyhow::Res
     }
     refuse_to_replace_input(path, &loaded.inputs, "the statistics")?;
     // The file is written through a temporary file in the folder: try one now.
-    tempfile::Builder::new()
-        .prefix(".strahl-")
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))?;
+    temporary_file_in(&dir)
+        .map_err(|why| anyhow!("{}: cannot write the statistics: {why}", path.display()))?;
     Ok(())
 }
 
@@ -966,14 +973,21 @@ fn warn_about_scene(
     }
 }
 
-/// Writes the statistics as JSON to `path`; if that fails, removes the image at `image` too
-/// (all or nothing: no image without its statistics).
+/// Writes the statistics as JSON to `path` (`-`: standard output); if that fails, removes the
+/// image at `image` too (all or nothing: no image without its statistics).
 fn write_stats(path: &Path, stats: &RenderStats, image: &Path) -> anyhow::Result<()> {
     let json = serde_json::to_string_pretty(stats)? + "\n";
-    let written = write_atomically(path, |w| {
-        w.write_all(json.as_bytes())
-            .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
-    });
+    let written = if is_stdout(path) {
+        let mut out = std::io::stdout().lock();
+        out.write_all(json.as_bytes())
+            .and_then(|()| out.flush())
+            .map_err(|e| anyhow!("cannot write the statistics to standard output: {e}"))
+    } else {
+        write_atomically(path, |w| {
+            w.write_all(json.as_bytes())
+                .map_err(|e| anyhow!("{}: cannot write the statistics: {e}", path.display()))
+        })
+    };
     if let Err(e) = written {
         let _ = std::fs::remove_file(image);
         return Err(e);

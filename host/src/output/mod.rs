@@ -14,7 +14,7 @@
 mod rows;
 
 use crate::formats::fs::{
-    destination_folder, refuse_to_replace_input, write_atomically, write_target,
+    destination_folder, refuse_to_replace_input, temporary_file_in, write_atomically, write_target,
 };
 use crate::formats::load::LoadedScene;
 use crate::util::usage::usage;
@@ -151,17 +151,8 @@ pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Resu
         ),
     }
     // The image is written through a temporary file in the folder: try one now.
-    tempfile::Builder::new()
-        .prefix(".strahl-")
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| {
-            anyhow::anyhow!(
-                "{}: cannot write the image: folder {} takes no new file ({e})",
-                path.display(),
-                dir.display()
-            )
-        })?;
+    temporary_file_in(&dir)
+        .map_err(|why| anyhow::anyhow!("{}: cannot write the image: {why}", path.display()))?;
     Ok(kind)
 }
 
