@@ -617,7 +617,7 @@ fn error_positions_and_messages() {
         ),
         (
             "scene {\n  sphere { radius 1e-50 }\n}",
-            "2:19: the radius 0.00000000000000000000000000000000000000000000000001 is too small: it rounds to 0 in single precision",
+            "2:19: the radius 1e-50 is too small: it rounds to 0 in single precision",
         ),
         (
             "scene {\n  union { sphere { }\n    sphere { scale 1e-30 } }\n}",
@@ -686,6 +686,14 @@ fn error_positions_and_messages() {
         (
             "scene {\n  sphere { material { color <1e30, 1, 1> diffuse 1e30 } }\n}",
             "2:12: expected a material whose `color` times `ambient` and `diffuse` stays within single precision (about 3.4e38)",
+        ),
+        (
+            "scene {\n  camera { position <3e38, 0, 0> look_at <-3e38, 0, 0> }\n}",
+            "2:42: expected `look_at` within single precision (about 3.4e38) of the camera's `position`",
+        ),
+        (
+            "scene {\n  sphere { radius 1e300 }\n}",
+            "2:19: the number 1e300 is too large",
         ),
         (
             "scene {\n  sphere { material { ior 0 } }\n}",

@@ -332,6 +332,17 @@ fn bad_input_gives_exact_messages() {
             "bad.nff:8: `l`: `inf` is not a finite number",
         ),
         (
+            format!(
+                "v\nfrom 3e38 -3e38 2\nat -3e38 3e38 0\nup 0 0 1\nangle 45\nhither 0.01\n\
+                 resolution 16 16\n{l}"
+            ),
+            "bad.nff:3: `at`: the distance from `from` is beyond single precision (about 3.4e38)",
+        ),
+        (
+            format!("{VIEW}{l}{f}c -3e38 0 0 1 3e38 0 0 1\n"),
+            "bad.nff:10: `c`: the distance from the base to the apex is beyond single precision (about 3.4e38)",
+        ),
+        (
             format!("{VIEW}{l}f 1e20 1 1 1e20 0 10 0 1\n"),
             "bad.nff:9: `f`: the colour times Kd is beyond single precision (about 3.4e38)",
         ),

@@ -466,6 +466,12 @@ impl<'a> Parser<'a> {
                 "`at`: the camera looks at its own position; `at` must differ from `from`",
             ));
         }
+        if !(at - from).is_finite() {
+            return Err(self.error(
+                at_line,
+                "`at`: the distance from `from` is beyond single precision (about 3.4e38)",
+            ));
+        }
         if (at - from).cross(up).normalize_or_zero() == Vec3::ZERO {
             return Err(self.error(
                 up_line,
@@ -677,7 +683,13 @@ impl<'a> Parser<'a> {
         let base = Vec3::new(bx.value, by.value, bz.value);
         let apex = Vec3::new(ax.value, ay.value, az.value);
         let Some((transform, height)) = cone_transform(base, apex) else {
-            return Err(self.error(ax.line, "`c`: the apex is the base point; they must differ"));
+            let why = if base == apex {
+                "`c`: the apex is the base point; they must differ"
+            } else {
+                "`c`: the distance from the base to the apex is beyond single precision (about \
+                 3.4e38)"
+            };
+            return Err(self.error(ax.line, why));
         };
         self.add_solid(
             keyword.line,

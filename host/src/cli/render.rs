@@ -369,14 +369,14 @@ pub fn fraction(s: &str) -> Result<f64, String> {
     }
 }
 
-/// Parses a positive, finite number of seconds.
+/// Parses a positive number of seconds, at most a million (11.6 days).
 ///
 /// # Errors
 /// A message if the text is not such a number.
 pub fn positive_seconds(s: &str) -> Result<f64, String> {
     match s.parse::<f64>() {
         Ok(v) if v.is_finite() && v > 0.0 && v <= 1e6 => Ok(v),
-        _ => Err("expected a number of seconds greater than 0".to_string()),
+        _ => Err("expected a number of seconds above 0 and at most 1000000".to_string()),
     }
 }
 

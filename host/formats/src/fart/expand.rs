@@ -253,12 +253,19 @@ fn cylinder((v, pos): (DVec3, Pos)) -> Res<Shape> {
     })
 }
 
+/// A number for a message: as written where that is short, in exponent form (`1e300`) where
+/// plain digits would run long.
 fn show_num(v: f64) -> String {
-    format!("{v}")
+    let magnitude = v.abs();
+    if magnitude == 0.0 || (1e-6..1e16).contains(&magnitude) || !v.is_finite() {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
 }
 
 fn show_vec(v: DVec3) -> String {
-    format!("<{}, {}, {}>", v.x, v.y, v.z)
+    format!("<{}, {}, {}>", show_num(v.x), show_num(v.y), show_num(v.z))
 }
 
 impl Value {
@@ -772,6 +779,12 @@ impl Expander {
             None => 45.0,
         };
         let forward = look_at - position;
+        if !forward.is_finite() {
+            return err(
+                lpos,
+                "expected `look_at` within single precision (about 3.4e38) of the camera's `position`",
+            );
+        }
         if forward == Vec3::ZERO {
             return err(
                 lpos,
