@@ -21,21 +21,51 @@ pub fn read_text(path: &Path) -> Result<String, LoadError> {
         path: path.to_path_buf(),
         source,
     })?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let good = e.utf8_error().valid_up_to();
-        let bytes = e.as_bytes();
-        let line = 1 + bytes[..good].iter().filter(|&&b| b == b'\n').count();
-        LoadError::At {
-            path: path.to_path_buf(),
-            line,
-            message: format!("the file is not UTF-8 text (bad byte at offset {good})"),
+    let text = match String::from_utf8(bytes) {
+        Ok(text) => text,
+        Err(e) => {
+            let good = e.utf8_error().valid_up_to();
+            let bytes = e.as_bytes();
+            match std::str::from_utf8(&bytes[..good]) {
+                // Nothing after `QUIT` is read, so it need not be text either.
+                Ok(before) if quits(before) => before.to_string(),
+                _ => {
+                    let line = 1 + bytes[..good].iter().filter(|&&b| b == b'\n').count();
+                    return Err(LoadError::At {
+                        path: path.to_path_buf(),
+                        line,
+                        message: format!("the file is not UTF-8 text (bad byte at offset {good})"),
+                    });
+                }
+            }
         }
-    })?;
+    };
     Ok(if text.contains('\r') {
         text.replace("\r\n", "\n").replace('\r', "\n")
     } else {
         text
     })
+}
+
+/// Whether a line of `text` has `QUIT` as its first word, whole (followed by a separator or a
+/// line end within `text`): the file ends there.
+fn quits(text: &str) -> bool {
+    let mut rest = text.strip_prefix('\u{feff}').unwrap_or(text);
+    loop {
+        let (line, next) = match rest.find(['\n', '\r']) {
+            Some(i) => (&rest[..i], Some(&rest[i + 1..])),
+            None => (rest, None),
+        };
+        if let Some(after) = line.trim_start_matches(is_separator).strip_prefix("QUIT") {
+            if after.starts_with(is_separator) || (after.is_empty() && next.is_some()) {
+                return true;
+            }
+        }
+        match next {
+            Some(n) => rest = n,
+            None => return false,
+        }
+    }
 }
 
 /// Whether `c` separates words: spaces and tabs (and the other ASCII white space).
@@ -235,6 +265,40 @@ impl Line<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn bytes_that_are_not_text_after_quit_are_not_read() -> Result<(), LoadError> {
+        let dir = tempfile::tempdir().map_err(|source| LoadError::Io {
+            path: "tempdir".into(),
+            source,
+        })?;
+        let file = |name: &str, bytes: &[u8]| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, bytes).map(|()| path)
+        };
+        let io = |source| LoadError::Io {
+            path: "written".into(),
+            source,
+        };
+        for (name, bytes) in [
+            ("own-line.txt", &b"A 1\nQUIT\n\xff\xfe junk\n"[..]),
+            ("same-line.txt", b"A 1\r\n  QUIT \xe4 (Latin-1)\n"),
+        ] {
+            let text = read_text(&file(name, bytes).map_err(io)?)?;
+            assert!(text.starts_with("A 1\n"), "{name}: {text:?}");
+        }
+        for (name, bytes, line) in [
+            ("before.txt", &b"A \xff\nQUIT\n"[..], 1),
+            ("glued.txt", b"B 2\nQUIT\xff\n", 2),
+            ("in-rem.txt", b"REM QUIT\n\xff\n", 2),
+        ] {
+            match read_text(&file(name, bytes).map_err(io)?) {
+                Err(LoadError::At { line: at, .. }) => assert_eq!(at, line, "{name}"),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+        Ok(())
+    }
 
     #[test]
     fn skips_rem_blank_and_stops_at_quit() {
