@@ -16,6 +16,11 @@ const NFF: &str = "v\nfrom 0 -5 2\nat 0 0 0\nup 0 0 1\nangle 40\nhither 0.1\nres
                    b 0.1 0.1 0.2\nl 4 -4 6\nf 1 0.5 0.5 0.8 0.2 20 0 0\ns 0 0 0.5 0.5\n\
                    p 4\n-3 -3 0\n3 -3 0\n3 3 0\n-3 3 0\n";
 
+/// A FART scene of the mesh in `tri.obj`.
+const MESH_FART: &str = "scene {\n  \
+    camera { position <0.3, 0.3, 3> look_at <0.3, 0.3, 0> up <0, 1, 0> vfov 40 }\n  \
+    light { position <2, 2, 5> intensity 1 }\n  mesh { file \"tri.obj\" }\n}\n";
+
 /// Runs `strahl render SCENE -w 16 -h 16 -q ARGS` in `dir`: its exit code and stderr.
 fn render(dir: &Path, scene: &str, args: &[&str]) -> Result<(Option<i32>, String), std::io::Error> {
     let out = Command::new(BIN)
@@ -109,11 +114,7 @@ fn no_output_replaces_a_file_the_scene_was_loaded_from() -> TestResult {
         "mtllib tri.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
     )?;
     std::fs::write(d.join("tri.mtl"), "newmtl red\nKd 1 0 0\n")?;
-    std::fs::write(
-        d.join("m.fart"),
-        "scene {\n  camera { position <0.3, 0.3, 3> look_at <0.3, 0.3, 0> up <0, 1, 0> vfov 40 }\n  \
-         light { position <2, 2, 5> intensity 1 }\n  mesh { file \"tri.obj\" }\n}\n",
-    )?;
+    std::fs::write(d.join("m.fart"), MESH_FART)?;
     let cases: [(&str, &[&str], &str); 7] = [
         ("s.nff", &["-o", "s.nff", "--format", "png"], "s.nff"),
         (
@@ -161,11 +162,7 @@ fn a_fart_meshs_material_problems_are_warned_about() -> TestResult {
         d.join("tri.obj"),
         "mtllib gone.mtl\nusemtl red\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
     )?;
-    std::fs::write(
-        d.join("m.fart"),
-        "scene {\n  camera { position <0.3, 0.3, 3> look_at <0.3, 0.3, 0> up <0, 1, 0> vfov 40 }\n  \
-         light { position <2, 2, 5> intensity 1 }\n  mesh { file \"tri.obj\" }\n}\n",
-    )?;
+    std::fs::write(d.join("m.fart"), MESH_FART)?;
     let out = Command::new(BIN)
         .current_dir(d)
         .args(["render", "m.fart", "-w", "16", "-h", "16", "-o", "m.png"])

@@ -1,7 +1,11 @@
 //! Files written whole or not at all: [`write_atomically`] and the folder it writes in.
 //!
 //! Every writer of Strahl (images, generated scenes, converted meshes, statistics, reports)
-//! goes through [`write_atomically`], so no failed run leaves a partial file behind.
+//! goes through [`write_atomically`], so no failed run leaves a partial file behind. What it may
+//! replace is decided in one place, [`write_target`] (a link is written through; a folder,
+//! device, pipe or socket is refused), and no writer replaces a file its run read
+//! ([`refuse_to_replace_input`], by [`same_file`]) nor, unless asked, one that is there
+//! ([`refuse_to_replace`]).
 
 use anyhow::Context as _;
 use std::io::{BufWriter, Write as _};
@@ -14,6 +18,10 @@ pub fn destination_folder(path: &Path) -> PathBuf {
         _ => PathBuf::from("."),
     }
 }
+
+/// Why [`write_target`] refuses a device, a pipe or a socket.
+const NOT_REGULAR: &str = "it is not a regular file (a device, a pipe or a socket); Strahl \
+    writes a whole new file and moves it into place, which would replace it";
 
 /// The file a write to `path` replaces: `path` itself, or the file a symbolic link there
 /// names (the link is kept, as a program writing through it would keep it). A file is written
@@ -37,11 +45,7 @@ pub fn write_target(path: &Path) -> Result<PathBuf, String> {
         return Err("it is a folder".to_string());
     }
     if !meta.is_file() {
-        return Err(
-            "it is not a regular file (a device, a pipe or a socket); Strahl writes a \
-                    whole new file and moves it into place, which would replace it"
-                .to_string(),
-        );
+        return Err(NOT_REGULAR.to_string());
     }
     Ok(target)
 }
@@ -100,8 +104,8 @@ pub fn refuse_to_replace_input(
 /// when dropped).
 ///
 /// # Errors
-/// Why not, for a message after the path the user named: the error's kind alone, since
-/// tempfile's error names the temporary file, which the user never asked for.
+/// Why not, for a message after the path the user named: whether the folder exists, and the
+/// system's error without the temporary file's name, which the user never asked for.
 pub fn temporary_file_in(dir: &Path) -> Result<tempfile::NamedTempFile, String> {
     let mut builder = tempfile::Builder::new();
     builder.prefix(".strahl-").suffix(".tmp");
