@@ -1,6 +1,6 @@
 //! Output options a POV-Ray user expects, through the binary: `--region` renders a rectangle
 //! whose pixels are the full render's (cropped, or in a full-size image with the rest in the
-//! background colour), `--format` and the extensions write BMP, PNG 8 and 16 bit, PPM and EXR,
+//! background colour) and whose lines alone the master holds, `--format` and the extensions write BMP, PNG 8 and 16 bit, PPM and EXR,
 //! `-o -` writes to standard output, and what Strahl cannot read or write is a usage error
 //! (exit 2) that lists what it can.
 
@@ -81,6 +81,47 @@ fn a_region_has_the_full_renders_pixels() -> TestResult {
     let (code, _, err) = room(&path("x.png"), &["--region", "5,5,5,9"])?;
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("for example"), "{err}");
+    Ok(())
+}
+
+/// A region of the largest image Strahl renders, under a 2 GiB address-space limit: the master
+/// holds the region's lines alone, where the whole image's pixels would take 6 GiB.
+#[test]
+fn a_region_of_a_huge_image_holds_its_lines_alone() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("strip.png").display().to_string();
+    let scene = room_config().display().to_string();
+    let limited = "ulimit -v 2097152 && exec \"$0\" \"$@\"";
+    let args = [
+        "-c",
+        limited,
+        BIN,
+        "render",
+        &scene,
+        "-o",
+        &out,
+        "-w",
+        "32768",
+        "-h",
+        "32768",
+        "--region",
+        "16000,9000,16064,9002",
+        "--workers",
+        "2",
+        "-q",
+    ];
+    let run = Command::new("bash")
+        .args(args)
+        .stdin(Stdio::null())
+        .output()?;
+    let err = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(0), "{err}");
+    let strip = image::open(&out)?.to_rgb8();
+    assert_eq!(strip.dimensions(), (64, 2));
+    assert!(
+        strip.pixels().any(|p| p.0 != [0, 0, 0]),
+        "the room, not the background"
+    );
     Ok(())
 }
 

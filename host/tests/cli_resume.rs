@@ -1,7 +1,8 @@
 //! Nothing lost: a render killed (SIGKILL) or interrupted (Ctrl-C, SIGINT) keeps the lines it
 //! finished in `OUTPUT.checkpoint`, `--resume` renders only the others, and the image is byte
 //! for byte the one an uninterrupted render gives. A checkpoint of other settings is refused,
-//! a fresh render does not overwrite a checkpoint, and no temporary file is left behind.
+//! a fresh render does not overwrite a checkpoint, and no temporary file is left behind. A
+//! checkpoint resumed with a region gives the region's lines it holds.
 //! SIGTERM stops a render as Ctrl-C does; a signal while the image is written lets it finish.
 
 use crate::support::*;
@@ -198,6 +199,31 @@ fn wait_for_the_write(p: &mut Proc, dir: &Path) -> TestResult {
         thread::sleep(Duration::from_millis(1));
     }
     Err("no write within the render time-out".into())
+}
+
+#[test]
+fn a_checkpoint_resumed_with_a_region_uses_the_lines_they_share() -> TestResult {
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let mut p = start_and_wait_for_results(&out)?;
+    p.kill();
+    // The checkpoint holds the first lines (over 64 KiB of them, 7.5 KiB each): the region
+    // leaves the first four out and takes the others.
+    let r = render(
+        LARGE,
+        &out,
+        &["--workers", "2", "--resume", "--region", "100,4,400,700"],
+    )?;
+    r.assert_success();
+    assert!(r.stderr.contains("resuming:"), "{}", r.stderr);
+    let want = image::load_from_memory(&reference(LARGE)?)?.to_rgb8();
+    let got = image::open(&out)?.to_rgb8();
+    assert_eq!(got.dimensions(), (300, 696));
+    for (x, y, p) in got.enumerate_pixels() {
+        assert_eq!(p, want.get_pixel(x + 100, y + 4), "({x}, {y})");
+    }
+    assert_eq!(files(dir.path())?, ["out.bmp"], "the checkpoint is gone");
+    Ok(())
 }
 
 #[test]

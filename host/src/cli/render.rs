@@ -39,6 +39,7 @@ use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
+use strahl_core::scene::effects::is_adaptive;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
@@ -479,7 +480,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let build_start = Instant::now();
     let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
-    let progress = Progress::new(prepared.scene.settings.height, args.quiet);
+    let job = match args.region {
+        Some(r) => prepared.job().limited_to(r.lines()),
+        None => prepared.job(),
+    };
+    let progress = Progress::new(job.lines.len() as u32, args.quiet);
     let warn = |msg: &str| {
         if !args.quiet {
             progress.println(&format!("warning: {msg}"));
@@ -491,7 +496,15 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
         path: &loaded.output,
         kind,
     };
-    let image = render_and_write(args, &output, &prepared, secret, &progress, &warn, hub);
+    let image = render_and_write(
+        args,
+        &output,
+        (&prepared, &job),
+        secret,
+        &progress,
+        &warn,
+        hub,
+    );
     if let Some(hub) = hub {
         hub.end(match &image {
             Ok(_) => Status::Done {
@@ -551,7 +564,8 @@ fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
         r.check(s.width, s.height).map_err(usage)?;
     }
     let secret = load_secret(args.cluster.secret_file.as_deref())?;
-    check_image_memory(&loaded, kind, crate::util::sys::available_memory())?;
+    let have = crate::util::sys::available_memory();
+    check_image_memory(&loaded, (args.region, args.keep_size), kind, have)?;
     if let Some(stats) = &args.stats_json {
         check_stats_path(stats, &loaded)?;
     }
@@ -661,22 +675,40 @@ pub fn scene_format(path: &Path) -> anyhow::Result<SceneFormat> {
 }
 
 /// Refuses, before anything is built, an image whose pixels cannot fit in the memory the system
-/// reports available (`have`; `None`: it does not say).
+/// reports available (`have`; `None`: it does not say). With `region` the master holds the
+/// region's lines alone (all lines with adaptive multisampling, as its job does), and writes the
+/// rectangle, or with `keep_size` the whole image.
 fn check_image_memory(
     loaded: &LoadedScene,
+    (region, keep_size): (Option<Region>, bool),
     kind: ImageKind,
     have: Option<u64>,
 ) -> anyhow::Result<()> {
     let s = &loaded.desc.settings;
-    let need = image_memory(kind, s.width, s.height);
+    let (need, what) = match region {
+        None => (
+            image_memory(kind, s.width, s.height),
+            format!("a {}x{} image", s.width, s.height),
+        ),
+        Some(r) => {
+            let lines = if is_adaptive(s) { s.height } else { r.size().1 };
+            let (w, h) = if keep_size {
+                (s.width, s.height)
+            } else {
+                r.size()
+            };
+            (
+                6 * u64::from(s.width) * u64::from(lines) + image_memory(kind, w, h),
+                format!("the region {r} of a {}x{} image", s.width, s.height),
+            )
+        }
+    };
     match have {
         Some(have) if need > have => Err(anyhow!(
-            "{}: a {}x{} image needs {} for its pixels (6 bytes each while rendering, and \
-             what writing it as {} copies), and the system has {} available; render a smaller \
+            "{}: {what} needs {} for its pixels (6 bytes each while rendering, and what \
+             writing it as {} copies), and the system has {} available; render a smaller \
              image",
             loaded.config_path.display(),
-            s.width,
-            s.height,
             crate::util::units::format_bytes(usize::try_from(need).unwrap_or(usize::MAX)),
             kind.name(),
             crate::util::units::format_bytes(usize::try_from(have).unwrap_or(usize::MAX))
@@ -695,14 +727,13 @@ fn check_image_memory(
 fn render_and_write(
     args: &RenderArgs,
     output: &Output<'_>,
-    prepared: &PreparedScene,
+    (prepared, job): (&PreparedScene, &ClusterJob),
     secret: Option<Secret>,
     progress: &Progress,
     warn: &(dyn Fn(&str) + Sync),
     hub: Option<&Hub>,
 ) -> anyhow::Result<Traced> {
-    let job = prepared.job();
-    let (checkpoint, kept) = open_checkpoint(args.resume, output.path, &job)?;
+    let (checkpoint, kept) = open_checkpoint(args.resume, output.path, job)?;
     if !kept.is_empty() && !args.quiet {
         progress.println(&format!(
             "resuming: {} results kept in {}",
@@ -710,7 +741,6 @@ fn render_and_write(
             checkpoint.path().display()
         ));
     }
-    let done = [lines_outside(args.region, prepared, &job), kept].concat();
     let checkpoint = Mutex::new(Some(checkpoint));
     let record = |task: u32, rays: RayCounts, pixels: &[Pixel]| {
         record_result(&checkpoint, task, rays, pixels, warn);
@@ -749,11 +779,11 @@ fn render_and_write(
         on_result: Some(&record),
         on_final: hub.map(|_| &on_final as _),
         on_tick: Some(&on_tick),
-        resume: &done,
+        resume: &kept,
         stop: Some(stop_on_ctrl_c()),
     };
     let image = run_master_with(
-        &job,
+        job,
         std::mem::take(&mut workers.links),
         workers.joins.as_ref(),
         &args.master_options(secret),
@@ -771,7 +801,7 @@ fn render_and_write(
             return Err(with_resume_hint(e, checkpoint));
         }
     };
-    write_output(args.region, args.keep_size, output, prepared, &image.pixels)?;
+    write_output(args, output, (prepared, job), &image.pixels)?;
     // (None: writing it failed, as was warned.)
     if let Some(c) = checkpoint {
         c.remove()?;
@@ -806,43 +836,27 @@ struct Output<'a> {
     kind: ImageKind,
 }
 
-/// The lines outside `region` as done, with the background's pixels (none with adaptive
-/// multisampling, whose decisions need every line's pixels).
-fn lines_outside(
-    region: Option<Region>,
-    prepared: &PreparedScene,
-    job: &ClusterJob,
-) -> Vec<Record> {
-    let s = prepared.scene.settings;
-    match region {
-        Some(r) if job.adaptive.is_none() => {
-            r.outside(s.width, s.height, Pixel::from_color(s.background))
-        }
-        _ => Vec::new(),
-    }
-}
-
-/// Writes the image, or with `region` its rectangle (`keep_size`: the whole image with the rest
-/// in the background colour).
+/// Writes the image of the `rendered` lines of `job`, or with `--region` its rectangle
+/// (`--keep-size`: the whole image with the rest in the background colour).
 fn write_output(
-    region: Option<Region>,
-    keep_size: bool,
+    args: &RenderArgs,
     output: &Output<'_>,
-    prepared: &PreparedScene,
-    pixels: &[Pixel],
+    (prepared, job): (&PreparedScene, &ClusterJob),
+    rendered: &[Pixel],
 ) -> anyhow::Result<()> {
     let s = prepared.scene.settings;
     let (kind, path) = (output.kind, output.path);
-    match region {
-        None => write_image(path, kind, s.width, s.height, pixels),
-        Some(r) if keep_size => {
-            let mut full = pixels.to_vec();
-            r.mask(s.width, &mut full, Pixel::from_color(s.background));
+    let first = job.lines.start;
+    match args.region {
+        None => write_image(path, kind, s.width, s.height, rendered),
+        Some(r) if args.keep_size => {
+            let background = Pixel::from_color(s.background);
+            let full = r.place((s.width, s.height), first, rendered, background);
             write_image(path, kind, s.width, s.height, &full)
         }
         Some(r) => {
             let (w, h) = r.size();
-            write_image(path, kind, w, h, &r.crop(s.width, pixels))
+            write_image(path, kind, w, h, &r.crop(s.width, first, rendered))
         }
     }
 }
@@ -1026,14 +1040,29 @@ mod tests {
         let need = image_memory(ImageKind::Bmp, 32768, 32768);
         assert_eq!(need, 6_442_450_944, "BMP is written row by row: no copy");
         assert_eq!(image_memory(ImageKind::Png, 32768, 32768), 9_663_676_416);
-        let err =
-            check_image_memory(&loaded, ImageKind::Bmp, Some(need - 1)).expect_err("too large");
+        let whole = (None, false);
+        let err = check_image_memory(&loaded, whole, ImageKind::Bmp, Some(need - 1))
+            .expect_err("too large");
         let text = err.to_string();
         assert!(
             text.starts_with("raytracer.cfg: a 32768x32768 image needs"),
             "{text}"
         );
-        assert!(check_image_memory(&loaded, ImageKind::Bmp, Some(need)).is_ok());
-        assert!(check_image_memory(&loaded, ImageKind::Bmp, None).is_ok());
+        assert!(check_image_memory(&loaded, whole, ImageKind::Bmp, Some(need)).is_ok());
+        assert!(check_image_memory(&loaded, whole, ImageKind::Bmp, None).is_ok());
+        // A region's lines alone: 16 of 32768 pixels while rendering, the 16x16 rectangle
+        // written; with --keep-size the whole image written.
+        let region = Region::parse("0,0,16,16").ok();
+        let part = 6 * 32768 * 16 + 6 * 16 * 16;
+        let err = check_image_memory(&loaded, (region, false), ImageKind::Bmp, Some(part - 1))
+            .expect_err("too large");
+        assert!(
+            err.to_string()
+                .starts_with("raytracer.cfg: the region 0,0,16,16 of a 32768x32768 image needs"),
+            "{err}"
+        );
+        assert!(check_image_memory(&loaded, (region, false), ImageKind::Bmp, Some(part)).is_ok());
+        let kept = (region, true);
+        assert!(check_image_memory(&loaded, kept, ImageKind::Bmp, Some(need)).is_err());
     }
 }

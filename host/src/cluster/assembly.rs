@@ -1,9 +1,11 @@
 //! Image assembly on the master: the first result of every task becomes pixels. Without
 //! adaptive multisampling a line's result is its pixels. With it, a line's first pass gives its
 //! centres, the core's [`SecondPass`] says which lines' second passes are decided by them, and a
-//! second pass's flagged pixels are merged over the centres.
+//! second pass's flagged pixels are merged over the centres. It holds the lines the job renders
+//! alone (a region's, or all).
 
 use crate::cluster::job::{AdaptiveJob, ClusterJob};
+use core::ops::Range;
 use strahl_core::render::adaptive::{mask_len, merge_refined, SecondPass};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
@@ -11,7 +13,9 @@ use strahl_core::render::stats::RayCounts;
 /// The image as results come in.
 pub(crate) struct Assembly {
     width: u32,
-    /// `width × height` pixels, row-major, top row first.
+    /// The first line rendered (the job's `lines.start`).
+    first: u32,
+    /// `width` pixels for each line the job renders, row-major, top row first.
     pixels: Vec<Pixel>,
     /// Rays traced for the result used of each task (first passes, then second passes), summed
     /// at the end: a task put in again (its first result was wrong) replaces its rays.
@@ -38,11 +42,12 @@ pub(crate) enum Decided {
 }
 
 impl Assembly {
-    /// A black image for `job`.
+    /// A black image of the lines `job` renders.
     pub(crate) fn new(job: &ClusterJob) -> Self {
         Assembly {
             width: job.width,
-            pixels: vec![Pixel::default(); job.width as usize * job.height as usize],
+            first: job.lines.start,
+            pixels: vec![Pixel::default(); job.width as usize * job.lines.len()],
             rays: vec![RayCounts::default(); 2 * job.height as usize],
             adaptive: job.adaptive.map(|a| Adaptive {
                 job: a,
@@ -52,15 +57,21 @@ impl Assembly {
         }
     }
 
-    /// Line `y`'s pixels as they stand.
+    /// Line `y`'s pixels as they stand (`y` one of the job's lines).
     pub(crate) fn line(&self, y: u32) -> &[Pixel] {
-        let w = self.width as usize;
-        &self.pixels[y as usize * w..(y as usize + 1) * w]
+        &self.pixels[self.span(y)]
     }
 
     fn line_mut(&mut self, y: u32) -> &mut [Pixel] {
+        let span = self.span(y);
+        &mut self.pixels[span]
+    }
+
+    /// Where line `y`'s pixels lie in `pixels`.
+    fn span(&self, y: u32) -> Range<usize> {
         let w = self.width as usize;
-        &mut self.pixels[y as usize * w..(y as usize + 1) * w]
+        let at = (y - self.first) as usize * w;
+        at..at + w
     }
 
     /// Puts the first result of line `y`'s (first) pass in: its pixels and the `rays` it took.
@@ -83,7 +94,6 @@ impl Assembly {
     /// Merges the first result of line `y`'s second pass (which took `rays`); returns the rays
     /// of both passes.
     pub(crate) fn put_refined(&mut self, y: u32, rays: RayCounts, pixels: &[Pixel]) -> RayCounts {
-        let w = self.width as usize;
         let height = self.rays.len() / 2;
         self.rays[height + y as usize] = rays;
         let mut all = self.first_rays(y);
@@ -93,8 +103,8 @@ impl Assembly {
             let decision = a.pass.decision(y);
             debug_assert!(decision.is_some(), "second pass of undecided line {y}");
             if let Some((edges, _)) = decision {
-                let at = y as usize * w;
-                merge_refined(edges, pixels, &mut self.pixels[at..at + w]);
+                let span = self.span(y);
+                merge_refined(edges, pixels, &mut self.pixels[span]);
             }
         }
         all

@@ -3,6 +3,7 @@
 
 use crate::cluster::report::WorkerReport;
 use crate::util::secret::Secret;
+use std::ops::Range;
 use std::sync::Arc;
 use std::time::Duration;
 use strahl_core::render::pixel::Pixel;
@@ -73,6 +74,9 @@ pub struct ClusterJob {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
+    /// The lines rendered: `0..height` but for `--region` ([`ClusterJob::limited_to`]). The
+    /// others are never asked for, and the image holds these lines alone.
+    pub lines: Range<u32>,
     /// Adaptive multisampling's second pass, if the scene uses it.
     pub adaptive: Option<AdaptiveJob>,
     /// The rays a line result can report: a worker whose counts lie beyond them is dropped.
@@ -80,6 +84,18 @@ pub struct ClusterJob {
     /// The scene itself, where the master has it: with `--verify` it renders a line itself
     /// when two workers' results differ, to tell which is wrong.
     pub scene: Option<Arc<Scene>>,
+}
+
+impl ClusterJob {
+    /// The job rendering `lines` alone (within `0..height`). With adaptive multisampling it
+    /// renders every line still: a line's neighbours decide which of its pixels are
+    /// supersampled.
+    pub fn limited_to(mut self, lines: Range<u32>) -> Self {
+        if self.adaptive.is_none() {
+            self.lines = lines.start.min(self.height)..lines.end.min(self.height);
+        }
+        self
+    }
 }
 
 /// How the master decides adaptive multisampling's second pass.
@@ -94,7 +110,8 @@ pub struct AdaptiveJob {
 /// A finished distributed render.
 #[derive(Clone, Debug)]
 pub struct ClusterImage {
-    /// `width × height` pixels, row-major, top row first.
+    /// The job's [`lines`](ClusterJob::lines) (all `height` of them but for a region), `width`
+    /// pixels each, row-major, top row first.
     pub pixels: Vec<Pixel>,
     /// Rays traced for the lines used.
     pub rays: RayCounts,

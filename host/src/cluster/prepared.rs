@@ -63,6 +63,7 @@ impl PreparedScene {
             blob: Arc::clone(&self.blob),
             width: self.scene.settings.width,
             height: self.scene.settings.height,
+            lines: 0..self.scene.settings.height,
             scene: Some(Arc::clone(&self.scene)),
             ray_limits: LineRayLimits::new(&self.scene.settings, self.scene.lights.len()),
             adaptive: self

@@ -1,15 +1,17 @@
 //! `--region`: render part of the image (POV-Ray's `+SR/+ER` and `+SC/+EC` idea).
 //!
-//! Lines outside the region are not rendered: the master takes them as already done, with the
-//! background's pixels and no rays (as a checkpoint's lines are taken). Inside, whole lines are
-//! rendered (a request is a line), and the columns outside are set to the background after.
+//! Lines outside the region are not rendered: the job is limited to the region's lines
+//! ([`crate::cluster::job::ClusterJob::limited_to`]), so the master neither asks for the others
+//! nor holds their pixels. Inside, whole lines are rendered (a request is a line), and the
+//! columns outside are cut off after ([`Region::crop`]), or set to the background with
+//! `--keep-size` ([`Region::place`]).
 //! Every pixel of the region is the full render's, because a pixel depends on no other pixel;
 //! with adaptive multisampling it does (its neighbours decide whether it is supersampled), so
 //! then every line is rendered.
 
-use crate::cluster::checkpoint::Record;
+use std::fmt;
+use std::ops::Range;
 use strahl_core::render::pixel::Pixel;
-use strahl_core::render::stats::RayCounts;
 
 /// A rectangle of pixels: columns `x0..x1`, lines `y0..y1` (ends exclusive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,9 +48,8 @@ impl Region {
     pub fn check(&self, width: u32, height: u32) -> Result<(), String> {
         if self.x1 > width || self.y1 > height {
             return Err(format!(
-                "--region {},{},{},{} reaches beyond the {width}x{height} image (X1 at most \
-                 {width}, Y1 at most {height})",
-                self.x0, self.y0, self.x1, self.y1
+                "--region {self} reaches beyond the {width}x{height} image (X1 at most {width}, \
+                 Y1 at most {height})"
             ));
         }
         Ok(())
@@ -59,40 +60,49 @@ impl Region {
         (self.x1 - self.x0, self.y1 - self.y0)
     }
 
-    /// The lines outside the region, as results the master takes first: `background` pixels,
-    /// no rays.
-    pub fn outside(&self, width: u32, height: u32, background: Pixel) -> Vec<Record> {
-        (0..height)
-            .filter(|y| !(self.y0..self.y1).contains(y))
-            .map(|task| Record {
-                task,
-                rays: RayCounts::default(),
-                pixels: vec![background; width as usize],
-            })
-            .collect()
+    /// The lines the master renders: the region's.
+    pub fn lines(&self) -> Range<u32> {
+        self.y0..self.y1
     }
 
-    /// Sets every pixel of the `width`-wide image outside the region to `background`.
-    pub fn mask(&self, width: u32, pixels: &mut [Pixel], background: Pixel) {
-        for (i, p) in pixels.iter_mut().enumerate() {
-            let (x, y) = ((i % width as usize) as u32, (i / width as usize) as u32);
-            if !(self.x0..self.x1).contains(&x) || !(self.y0..self.y1).contains(&y) {
-                *p = background;
-            }
-        }
-    }
-
-    /// The region's pixels out of the `width`-wide image, row by row.
-    pub fn crop(&self, width: u32, pixels: &[Pixel]) -> Vec<Pixel> {
+    /// The region's pixels, row by row, out of `rendered`: the `width`-wide lines from
+    /// `first` on (the region's own, or with adaptive multisampling the whole image's).
+    pub fn crop(&self, width: u32, first: u32, rendered: &[Pixel]) -> Vec<Pixel> {
         let w = width as usize;
         (self.y0..self.y1)
             .flat_map(|y| {
-                let row = y as usize * w;
-                pixels[row + self.x0 as usize..row + self.x1 as usize]
+                let row = (y - first) as usize * w;
+                rendered[row + self.x0 as usize..row + self.x1 as usize]
                     .iter()
                     .copied()
             })
             .collect()
+    }
+
+    /// The whole `width × height` image (`--keep-size`): the region's pixels out of `rendered`
+    /// (as for [`Region::crop`]), `background` everywhere else.
+    pub fn place(
+        &self,
+        (width, height): (u32, u32),
+        first: u32,
+        rendered: &[Pixel],
+        background: Pixel,
+    ) -> Vec<Pixel> {
+        let mut image = vec![background; width as usize * height as usize];
+        let (x0, x1) = (self.x0 as usize, self.x1 as usize);
+        let part = self.crop(width, first, rendered);
+        for (y, row) in (self.y0..self.y1).zip(part.chunks_exact(x1 - x0)) {
+            let at = y as usize * width as usize;
+            image[at + x0..at + x1].copy_from_slice(row);
+        }
+        image
+    }
+}
+
+/// `X0,Y0,X1,Y1`, as [`Region::parse`] reads it.
+impl fmt::Display for Region {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{},{},{},{}", self.x0, self.y0, self.x1, self.y1)
     }
 }
 
@@ -101,7 +111,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn parses_checks_crops_and_masks() {
+    fn parses_checks_crops_and_places() {
         let r = Region::parse("1,0,3,2").expect("a region");
         assert_eq!(
             r,
@@ -129,17 +139,15 @@ mod tests {
             .expect_err("too narrow")
             .contains("beyond the 2x2 image"));
         let pixels: Vec<Pixel> = (0..12u16).map(|i| Pixel([i, 0, 0])).collect();
-        let cropped = r.crop(4, &pixels);
+        let values = |p: &[Pixel]| p.iter().map(|p| p.0[0]).collect::<Vec<_>>();
+        // The whole image rendered (adaptive multisampling), and the region's lines alone.
+        assert_eq!(values(&r.crop(4, 0, &pixels)), [1, 2, 5, 6]);
+        let lower = Region::parse("1,1,3,3").expect("a region");
+        assert_eq!(values(&lower.crop(4, 1, &pixels[4..])), [5, 6, 9, 10]);
+        let placed = lower.place((4, 3), 1, &pixels[4..], Pixel([99, 0, 0]));
         assert_eq!(
-            cropped.iter().map(|p| p.0[0]).collect::<Vec<_>>(),
-            [1, 2, 5, 6]
+            values(&placed),
+            [99, 99, 99, 99, 99, 5, 6, 99, 99, 9, 10, 99]
         );
-        let mut masked = pixels.clone();
-        r.mask(4, &mut masked, Pixel([99, 0, 0]));
-        let kept: Vec<u16> = masked.iter().map(|p| p.0[0]).collect();
-        assert_eq!(kept, [99, 1, 2, 99, 99, 5, 6, 99, 99, 99, 99, 99]);
-        let outside = r.outside(4, 3, Pixel([7, 0, 0]));
-        assert_eq!(outside.len(), 1);
-        assert_eq!(outside[0].task, 2);
     }
 }

@@ -13,6 +13,7 @@
 //! ([`Task::index`]).
 
 use std::collections::VecDeque;
+use std::ops::Range;
 
 /// What a worker is asked to do for one line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,6 +72,18 @@ impl LineScheduler {
             done: vec![false; height as usize],
             waiting: (0..height).collect(),
             finished: 0,
+        }
+    }
+
+    /// A scheduler for the `lines` of an image `height` lines high, all waiting; the others
+    /// count as done (`--region`).
+    pub fn for_lines(height: u32, lines: Range<u32>) -> Self {
+        let lines = lines.start.min(height)..lines.end.min(height);
+        LineScheduler {
+            holders: vec![0; height as usize],
+            done: (0..height).map(|y| !lines.contains(&y)).collect(),
+            finished: height - lines.len() as u32,
+            waiting: lines.collect(),
         }
     }
 
@@ -250,6 +263,17 @@ mod tests {
         assert!(s.complete(1, true));
         assert!(s.is_complete());
         assert_eq!(s.next_copy(|_| false), None);
+    }
+
+    #[test]
+    fn a_region_s_lines_alone_wait_and_the_others_count_as_done() {
+        let mut s = LineScheduler::for_lines(6, 2..4);
+        assert_eq!((s.finished(), s.is_complete()), (4, false));
+        assert_eq!(s.fill_window(0, 8), [2, 3]);
+        assert!(s.is_done(0) && s.is_done(5) && !s.is_done(2));
+        assert!(!s.complete(5, false), "a line outside is done already");
+        assert!(s.complete(2, true) && s.complete(3, true));
+        assert!(s.is_complete());
     }
 
     #[test]

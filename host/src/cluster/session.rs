@@ -248,7 +248,7 @@ impl<'a> Session<'a> {
     ) -> Self {
         let sched = match job.adaptive {
             Some(_) => LineScheduler::with_pending(2 * job.height, job.height),
-            None => LineScheduler::new(job.height),
+            None => LineScheduler::for_lines(job.height, job.lines.clone()),
         };
         Session {
             job,
@@ -294,6 +294,11 @@ impl<'a> Session<'a> {
     pub(crate) fn replay(&mut self, records: &[Record]) {
         for r in records {
             let task = Task::from_index(r.task, self.job.height);
+            let (Task::Line(y) | Task::Refine(y)) = task;
+            // A checkpoint of the same scene made with another region.
+            if !self.job.lines.contains(&y) {
+                continue;
+            }
             let decided = self.job.adaptive.is_some() && matches!(task, Task::Line(_));
             if self.sched.complete(r.task, false) || !decided {
                 self.apply_result(task, None, r.rays, &r.pixels);
@@ -489,7 +494,7 @@ impl<'a> Session<'a> {
                 rays,
                 pixels,
             } if j == job
-                && line < self.job.height
+                && self.job.lines.contains(&line)
                 && (!refined || self.job.adaptive.is_some()) =>
             {
                 let task = Task::from_wire(line, refined);
@@ -526,7 +531,7 @@ impl<'a> Session<'a> {
                 let reason = format!("it refused the job: {}", refusal_text(reason));
                 self.lose(id, reason, wire);
             }
-            // Messages about another job (an earlier one), or a line outside the image.
+            // Messages about another job (an earlier one), or a line not rendered.
             Incoming::NeedScene { .. }
             | Incoming::Ready { .. }
             | Incoming::Line { .. }
@@ -1257,6 +1262,7 @@ mod tests {
             }),
             width,
             height,
+            lines: 0..height,
             adaptive,
             scene: None,
             ray_limits: LineRayLimits::new(
