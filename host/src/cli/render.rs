@@ -19,11 +19,10 @@ use crate::cluster::prepared::{PrepareError, PreparedScene};
 use crate::cluster::region::Region;
 use crate::cluster::report::WorkerTable;
 use crate::cluster::report::{Activity, WorkerState};
-use crate::formats::fs::{
-    refuse_to_replace_input, same_destination, temporary_file_in, write_atomically, write_target,
-};
+use crate::formats::fs::{refuse_to_replace_input, same_destination, write_atomically};
 use crate::formats::load::{load_scene, LoadedScene, Overrides, SceneFormat};
-use crate::output::{check_scene_output, image_memory, is_stdout, write_image, ImageKind};
+use crate::output::{check_destination, check_scene_output, image_memory, is_stdout};
+use crate::output::{write_image, ImageKind};
 use crate::util::secret::{load_secret, Secret};
 use crate::util::usage::usage;
 use crate::view::events::Status;
@@ -200,31 +199,14 @@ fn check_stats_path(path: &std::path::Path, loaded: &LoadedScene) -> anyhow::Res
         }
         return Ok(());
     }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    if !dir.is_dir() {
-        anyhow::bail!(
-            "{}: cannot write the statistics: folder {} does not exist",
-            path.display(),
-            dir.display()
-        );
-    }
-    if let Err(why) = write_target(path) {
-        anyhow::bail!("{}: cannot write the statistics: {why}", path.display());
-    }
+    check_destination(path, "the statistics")?;
     if same_destination(path, &loaded.output) {
         anyhow::bail!(
             "{}: the statistics would replace the image; choose another name",
             path.display()
         );
     }
-    refuse_to_replace_input(path, &loaded.inputs, "the statistics")?;
-    // The file is written through a temporary file in the folder: try one now.
-    temporary_file_in(&dir)
-        .map_err(|why| anyhow!("{}: cannot write the statistics: {why}", path.display()))?;
-    Ok(())
+    refuse_to_replace_input(path, &loaded.inputs, "the statistics")
 }
 
 /// Parses an adaptive-multisampling threshold: a number from 0 to 1.

@@ -131,29 +131,37 @@ pub fn image_kind(path: &Path, format: Option<ImageKind>) -> anyhow::Result<Imag
 /// A message naming the path and what is wrong with it.
 pub fn check_output_path(path: &Path, format: Option<ImageKind>) -> anyhow::Result<ImageKind> {
     let kind = image_kind(path, format)?;
-    if is_stdout(path) {
-        return Ok(kind);
+    if !is_stdout(path) {
+        check_destination(path, "the image")?;
     }
-    let target = write_target(path)
-        .map_err(|why| anyhow::anyhow!("{}: cannot write the image: {why}", path.display()))?;
+    Ok(kind)
+}
+
+/// Checks, before anything is rendered, that `what` (a file, for messages: "the image") can be
+/// written at `path`: what it would replace ([`write_target`]), that the folder it goes in is
+/// there, and that a temporary file can be made in it, as every file is written through one.
+///
+/// # Errors
+/// `path: cannot write WHAT: why`.
+pub fn check_destination(path: &Path, what: &str) -> anyhow::Result<()> {
+    let cannot = |why: &dyn std::fmt::Display| {
+        anyhow::anyhow!("{}: cannot write {what}: {why}", path.display())
+    };
+    let target = write_target(path).map_err(|why| cannot(&why))?;
     let dir = destination_folder(&target);
     match std::fs::metadata(&dir) {
         Ok(m) if m.is_dir() => {}
-        Ok(_) => bail!(
-            "{}: cannot write the image: {} is not a folder",
-            path.display(),
-            dir.display()
-        ),
-        Err(e) => bail!(
-            "{}: cannot write the image: folder {} does not exist or cannot be read ({e})",
-            path.display(),
-            dir.display()
-        ),
+        Ok(_) => return Err(cannot(&format_args!("{} is not a folder", dir.display()))),
+        Err(e) => {
+            let why = format!(
+                "folder {} does not exist or cannot be read ({e})",
+                dir.display()
+            );
+            return Err(cannot(&why));
+        }
     }
-    // The image is written through a temporary file in the folder: try one now.
-    temporary_file_in(&dir)
-        .map_err(|why| anyhow::anyhow!("{}: cannot write the image: {why}", path.display()))?;
-    Ok(kind)
+    temporary_file_in(&dir).map_err(|why| cannot(&why))?;
+    Ok(())
 }
 
 /// [`check_output_path`] for the image of `loaded`, which must not replace a file the scene was
