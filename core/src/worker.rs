@@ -93,7 +93,11 @@ pub enum SessionEnd {
     /// The master sent `EndSession`.
     Ended,
     /// The link closed.
-    Closed,
+    Closed {
+        /// Frames the worker could not read since the session's last `Hello` (from its start
+        /// if none came): a damaged link, or a peer that does not speak the protocol.
+        unreadable: u32,
+    },
 }
 
 /// Why a session ended abnormally.
@@ -344,7 +348,10 @@ pub fn serve_with<L: Read, O: Outbox<L>>(
         let event = match reader.next(link) {
             Ok(event) => event,
             Err(LinkError::TimedOut) => continue,
-            Err(LinkError::Closed) => return Ok(SessionEnd::Closed),
+            Err(LinkError::Closed) => {
+                let unreadable = session.dropped;
+                return Ok(SessionEnd::Closed { unreadable });
+            }
             Err(e) => return Err(WorkerError::Link(e)),
         };
         let msg = match event {

@@ -1,7 +1,7 @@
 //! End-to-end tests of distributed rendering over TCP: real `strahl worker` and `strahl render`
 //! processes on the loopback interface. Workers are killed mid-render, their connections cut or
-//! hung by a proxy in the test, masters and workers meet peers of another protocol version,
-//! workers dial in or are launched from a hosts file, and worker addresses are bad or
+//! hung by a proxy in the test, masters and workers meet peers of another protocol version or
+//! of none, workers dial in or are launched from a hosts file, and worker addresses are bad or
 //! unreachable. Every image is compared byte for byte with the one a single in-process worker
 //! renders (`--workers 1`); the per-worker table at the end of `strahl render`'s output tells
 //! which workers were lost.
@@ -787,6 +787,56 @@ fn master_refuses_a_hello_of_no_threads_or_with_control_characters() -> TestResu
         );
         assert!(listing(dir.path())?.is_empty(), "{:?}", listing(dir.path()));
     }
+    Ok(())
+}
+
+/// Bytes that are not the protocol: a web browser's request, ended by the frame delimiter.
+const NOT_THE_PROTOCOL: &[u8] = b"GET / HTTP/1.1\r\nHost: strahl\r\n\r\n\0";
+
+#[test]
+fn a_worker_says_when_what_its_master_sent_could_not_be_read() -> TestResult {
+    let (w, address) = Proc::listening_worker("reader")?;
+    let mut stream = TcpStream::connect(&address)?;
+    stream.write_all(NOT_THE_PROTOCOL)?;
+    drop(stream);
+    let (seen, text) = w.wait_stderr(Duration::from_secs(20), |t| {
+        t.contains("the master disconnected; 1 frame it sent could not be read")
+    });
+    assert!(seen, "{text}");
+    Ok(())
+}
+
+#[test]
+fn a_master_says_when_what_a_worker_sent_could_not_be_read() -> TestResult {
+    let listener = TcpListener::bind("127.0.0.1:0")?;
+    let address = listener.local_addr()?.to_string();
+    let fake = thread::spawn(move || -> Result<(), String> {
+        let (stream, _) = listener.accept().map_err(|e| e.to_string())?;
+        let mut raw = RawFrames::new(stream).map_err(|e| e.to_string())?;
+        raw.next()?.ok_or("the master closed before its Hello")?;
+        raw.send(NOT_THE_PROTOCOL, None)
+            .map_err(|e| e.to_string())?;
+        while raw.next()?.is_some() {}
+        Ok(())
+    });
+    let dir = tempfile::tempdir()?;
+    let out = dir.path().join("out.bmp");
+    let args = [
+        "--workers",
+        "0",
+        "--worker",
+        &address,
+        "--worker-timeout",
+        "1",
+    ];
+    let r = render(SMALL, &out, &args)?;
+    fake.join().map_err(|_| "the fake worker panicked")??;
+    assert_eq!(r.status.code(), Some(1), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("1 frame it sent could not be read"),
+        "{}",
+        r.stderr
+    );
     Ok(())
 }
 

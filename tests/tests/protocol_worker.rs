@@ -533,7 +533,7 @@ fn full_session_transfers_renders_and_ends() {
 fn end_of_stream_closes_the_session() {
     let mut cache = SceneCache::new();
     let (result, out) = run(&Script::default(), &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     assert_eq!(out, vec![]);
 
     let mut script = Script::default();
@@ -543,7 +543,7 @@ fn end_of_stream_closes_the_session() {
         // A partial frame at the end is lost with the link.
         .raw(&[0, 5, 6, 7]);
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     assert_eq!(out, vec![worker_hello(MEMORY), Out::FenceAck { seq: 1 }]);
 }
 
@@ -596,7 +596,7 @@ fn cached_scene_skips_the_transfer() {
     let mut third = Script::default();
     third.hello().job(4, &f.blob).line(4, HEIGHT - 1);
     let (result, out) = run(&third, &node(MEMORY), &mut shared);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     assert_eq!(
         out,
         vec![
@@ -633,7 +633,7 @@ fn a_multi_line_request_is_answered_line_by_line_in_order() {
         })
         .send(MasterMessage::Fence { seq: 5 });
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let mut want = vec![worker_hello(MEMORY), Out::Ready { job: 1 }];
     want.extend((3..7).map(|y| expected_line(&f, 1, y)));
     want.push(expected_line(&f, 1, HEIGHT - 1));
@@ -692,7 +692,7 @@ fn held_writes(f: &Fixture, script: &Script, now: fn() -> std::time::Instant) ->
     };
     let mut outbox = Held::with_clock(now);
     let end = serve_with(&mut link, &mut outbox, &node(MEMORY), &mut cache);
-    assert_eq!(end, Ok(SessionEnd::Closed));
+    assert_eq!(end, Ok(SessionEnd::Closed { unreadable: 0 }));
     link.writes.iter().map(|w| decode_output(w)).collect()
 }
 
@@ -966,7 +966,7 @@ fn messages_before_hello_are_ignored() {
     assert_eq!(out, vec![], "no answer to anything before Hello");
     assert_eq!(
         result,
-        Ok(SessionEnd::Closed),
+        Ok(SessionEnd::Closed { unreadable: 1 }),
         "EndSession before Hello is ignored too"
     );
     assert!(
@@ -981,7 +981,7 @@ fn messages_before_hello_are_ignored() {
         .raw(&corrupt_frame())
         .send(MasterMessage::Fence { seq: 2 });
     let (result, out) = run(&before, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 1 }));
     assert_eq!(
         out,
         vec![
@@ -1015,7 +1015,7 @@ fn requests_that_cannot_be_served_are_refused() {
         .line(1, HEIGHT - 1);
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let refused = |job, reason| Out::Refused { job, reason };
     let mut want = vec![
         worker_hello(MEMORY),
@@ -1083,7 +1083,7 @@ fn refine_requests_supersample_the_flagged_pixels() {
         });
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let mut want = vec![
         worker_hello(MEMORY),
         Out::NeedScene {
@@ -1151,7 +1151,7 @@ fn fence_is_answered_after_earlier_requests() {
         .send(MasterMessage::Fence { seq: 43 });
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let after_load = out
         .iter()
         .position(|o| *o == Out::Ready { job: 7 })
@@ -1188,7 +1188,7 @@ fn scene_larger_than_memory_is_refused() {
         .line(1, 0)
         .job(1, &f.blob);
     let (result, out) = run(&script, &node(tiny), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let refused = Out::Refused {
         job: 1,
         reason: Refusal::SceneTooLarge { limit: tiny },
@@ -1215,7 +1215,7 @@ fn scene_larger_than_memory_is_refused() {
         .chunks_from(&f.blob, 0)
         .line(2, 0);
     let (result, out) = run(&script, &node(limit), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let refused = Out::Refused {
         job: 2,
         reason: Refusal::SceneTooLarge { limit },
@@ -1238,7 +1238,7 @@ fn scene_larger_than_memory_is_refused() {
     // Exactly the estimate is enough; it leaves the lights' buffers nothing (the same pixels
     // as with them, more work for the shadow rays).
     let (result, out) = run(&script, &node(estimate), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let bare = Scene::build_within(&f.desc, &OctreeParams::default(), 0).expect("it builds");
     assert!(bare.light_buffers.iter().all(Option::is_none));
     assert!(f.scene.light_buffers.iter().any(Option::is_some));
@@ -1282,7 +1282,7 @@ fn corrupt_frames_after_hello_are_reported() {
         .raw(&corrupt_frame());
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 1 }));
     assert_eq!(
         out,
         vec![
@@ -1320,7 +1320,7 @@ fn frame_too_long_for_the_worker_is_dropped() {
         .send(MasterMessage::Fence { seq: 5 });
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 1 }));
     assert_eq!(
         out,
         vec![
@@ -1349,7 +1349,7 @@ fn lost_chunk_is_asked_for_once_and_resending_completes() {
         .line(1, 2);
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let mut want = vec![
         worker_hello(MEMORY),
         Out::NeedScene {
@@ -1384,7 +1384,7 @@ fn job_announced_again_is_answered_where_it_stands() {
         .job(1, &f.blob);
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let mut want = vec![
         worker_hello(MEMORY),
         Out::NeedScene {
@@ -1427,7 +1427,7 @@ fn corrupt_or_bad_scenes_are_refused() {
         .line(1, 0);
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let refused = Out::Refused {
         job: 1,
         reason: Refusal::CorruptScene,
@@ -1448,7 +1448,7 @@ fn corrupt_or_bad_scenes_are_refused() {
         .chunks_from(&blob, 0)
         .line(2, 0);
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let refused = Out::Refused {
         job: 2,
         reason: Refusal::BadScene(SceneError::NoLight),
@@ -1470,7 +1470,7 @@ fn hello_mid_session_restarts_it_keeping_the_cache() {
         .line(1, 0);
     let mut cache = SceneCache::new();
     let (result, out) = run(&script, &node(MEMORY), &mut cache);
-    assert_eq!(result, Ok(SessionEnd::Closed));
+    assert_eq!(result, Ok(SessionEnd::Closed { unreadable: 0 }));
     let after_load = out
         .iter()
         .position(|o| *o == Out::Ready { job: 1 })

@@ -85,7 +85,7 @@ pub fn serve_port(
         let outcome = serve(&mut link, node, cache);
         served += 1;
         match outcome {
-            Ok(SessionEnd::Closed) => {
+            Ok(SessionEnd::Closed { .. }) => {
                 report(outcome);
                 // The other end is gone (a pseudo-terminal whose master closed): nothing more
                 // will come on this port.

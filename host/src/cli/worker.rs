@@ -84,7 +84,11 @@ const MAX_THREADS: i64 = 1024;
 fn describe(outcome: &Result<SessionEnd, WorkerError>) -> String {
     match outcome {
         Ok(SessionEnd::Ended) => "the master ended the session".to_string(),
-        Ok(SessionEnd::Closed) => "the master disconnected".to_string(),
+        Ok(SessionEnd::Closed { unreadable: 0 }) => "the master disconnected".to_string(),
+        Ok(SessionEnd::Closed { unreadable }) => format!(
+            "the master disconnected; {}",
+            crate::cluster::session::unreadable_frames(*unreadable)
+        ),
         Err(WorkerError::VersionMismatch { master }) => format!(
             "the master speaks protocol version {master}, this worker speaks version {}; \
              session refused",

@@ -1004,7 +1004,11 @@ impl<'a> Session<'a> {
         if stalled < self.opts.worker_timeout {
             return false;
         }
-        let reason = format!("no answer for {:.1} s", stalled.as_secs_f64());
+        let mut reason = format!("no answer for {:.1} s", stalled.as_secs_f64());
+        let unreadable = self.peers[id].report.frames_dropped;
+        if unreadable > 0 {
+            reason += &format!("; {}", unreadable_frames(unreadable));
+        }
         self.lose(id, reason, wire);
         true
     }
@@ -1155,6 +1159,16 @@ impl<'a> Session<'a> {
             first_request: self.first_request,
         })
     }
+}
+
+/// `n` frames a peer sent that could not be read, and what that usually means: for a message
+/// about a lost worker, and a worker's about its master.
+pub fn unreadable_frames(n: u32) -> String {
+    let frames = if n == 1 { "frame" } else { "frames" };
+    format!(
+        "{n} {frames} it sent could not be read (a damaged link, or a program that does not \
+         speak Strahl's protocol)"
+    )
 }
 
 /// A refusal in words.
