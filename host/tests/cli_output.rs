@@ -1,8 +1,8 @@
 //! Output options a POV-Ray user expects, through the binary: `--region` renders a rectangle
 //! whose pixels are the full render's (cropped, or in a full-size image with the rest in the
-//! background colour) and whose lines alone the master holds, `--format` and the extensions write BMP, PNG 8 and 16 bit, PPM and EXR,
-//! `-o -` writes to standard output, and what Strahl cannot read or write is a usage error
-//! (exit 2) that lists what it can.
+//! background colour) and whose lines alone the master holds, `--format` and the extensions
+//! write BMP, PNG 8 and 16 bit, PPM and EXR, `-o -` writes to standard output, and what Strahl
+//! cannot read or write is a usage error (exit 2) that lists what it can.
 
 use crate::support::{room_config, TestResult, BIN};
 use std::process::{Command, Stdio};
