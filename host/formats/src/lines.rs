@@ -47,25 +47,14 @@ pub fn read_text(path: &Path) -> Result<String, LoadError> {
     })
 }
 
-/// Whether a line of `text` has `QUIT` as its first word, whole (followed by a separator or a
-/// line end within `text`): the file ends there.
+/// Whether `text`, a file's start, reaches a `QUIT` line as [`lines`] reads it: the file ends
+/// there. Only its whole words count, up to its last separator (a word cut off by the end of
+/// `text` may go on past it: `QUITE`).
 fn quits(text: &str) -> bool {
-    let mut rest = text.strip_prefix('\u{feff}').unwrap_or(text);
-    loop {
-        let (line, next) = match rest.find(['\n', '\r']) {
-            Some(i) => (&rest[..i], Some(&rest[i + 1..])),
-            None => (rest, None),
-        };
-        if let Some(after) = line.trim_start_matches(is_separator).strip_prefix("QUIT") {
-            if after.starts_with(is_separator) || (after.is_empty() && next.is_some()) {
-                return true;
-            }
-        }
-        match next {
-            Some(n) => rest = n,
-            None => return false,
-        }
-    }
+    let whole = text.rfind(is_separator).map_or("", |i| &text[..=i]);
+    let mut read = lines(Path::new(""), whole);
+    read.by_ref().for_each(drop);
+    read.quit
 }
 
 /// Whether `c` separates words: spaces and tabs (and the other ASCII white space).
@@ -95,6 +84,8 @@ pub struct Lines<'a> {
     path: &'a Path,
     inner: std::iter::Enumerate<std::str::Split<'a, char>>,
     done: bool,
+    /// It ended at a `QUIT` line.
+    quit: bool,
 }
 
 /// The meaningful lines of `text`, read from `path`.
@@ -104,6 +95,7 @@ pub fn lines<'a>(path: &'a Path, text: &'a str) -> Lines<'a> {
         path,
         inner: text.split('\n').enumerate(),
         done: false,
+        quit: false,
     }
 }
 
@@ -125,6 +117,7 @@ impl<'a> Iterator for Lines<'a> {
                 "" | "REM" => continue,
                 "QUIT" => {
                     self.done = true;
+                    self.quit = true;
                     return None;
                 }
                 _ => {}

@@ -38,7 +38,6 @@ use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
-use strahl_core::scene::effects::is_adaptive;
 use strahl_core::scene::error::SceneError;
 use strahl_core::scene::settings::MAX_BOUNCES;
 use strahl_core::scene::{MAX_AMBIENT_OCCLUSION, MAX_IMAGE_SIDE, MAX_SAMPLES};
@@ -462,10 +461,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let build_start = Instant::now();
     let prepared = prepare(&loaded)?;
     let octree_build = build_start.elapsed();
-    let job = match args.region {
-        Some(r) => prepared.job().limited_to(r.lines()),
-        None => prepared.job(),
-    };
+    let lines = Region::rendered_lines(args.region, &prepared.scene.settings);
+    let job = prepared.job().limited_to(lines);
     let progress = Progress::new(job.lines.len() as u32, args.quiet);
     let warn = |msg: &str| {
         if !args.quiet {
@@ -673,7 +670,7 @@ fn check_image_memory(
             format!("a {}x{} image", s.width, s.height),
         ),
         Some(r) => {
-            let lines = if is_adaptive(s) { s.height } else { r.size().1 };
+            let lines = Region::rendered_lines(region, s).len() as u32;
             let (w, h) = if keep_size {
                 (s.width, s.height)
             } else {

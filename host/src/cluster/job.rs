@@ -74,8 +74,9 @@ pub struct ClusterJob {
     pub width: u32,
     /// Image height in pixels.
     pub height: u32,
-    /// The lines rendered: `0..height` but for `--region` ([`ClusterJob::limited_to`]). The
-    /// others are never asked for, and the image holds these lines alone.
+    /// The lines rendered: `0..height` but for `--region` ([`ClusterJob::limited_to`],
+    /// [`crate::cluster::region::Region::rendered_lines`]). The others are never asked for, and
+    /// the image holds these lines alone.
     pub lines: Range<u32>,
     /// Adaptive multisampling's second pass, if the scene uses it.
     pub adaptive: Option<AdaptiveJob>,
@@ -87,10 +88,11 @@ pub struct ClusterJob {
 }
 
 impl ClusterJob {
-    /// The job rendering `lines` alone (within `0..height`). With adaptive multisampling it
-    /// renders every line still: a line's neighbours decide which of its pixels are
-    /// supersampled.
+    /// The job rendering `lines` alone (within `0..height`). With adaptive multisampling they
+    /// must be every line ([`crate::cluster::region::Region::rendered_lines`]): the second
+    /// passes are scheduled for all, so the job is left whole otherwise.
     pub fn limited_to(mut self, lines: Range<u32>) -> Self {
+        debug_assert!(self.adaptive.is_none() || lines == (0..self.height));
         if self.adaptive.is_none() {
             self.lines = lines.start.min(self.height)..lines.end.min(self.height);
         }

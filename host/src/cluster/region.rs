@@ -12,6 +12,8 @@
 use std::fmt;
 use std::ops::Range;
 use strahl_core::render::pixel::Pixel;
+use strahl_core::scene::effects::is_adaptive;
+use strahl_core::scene::settings::RenderSettings;
 
 /// A rectangle of pixels: columns `x0..x1`, lines `y0..y1` (ends exclusive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,22 +62,27 @@ impl Region {
         (self.x1 - self.x0, self.y1 - self.y0)
     }
 
-    /// The lines the master renders: the region's.
-    pub fn lines(&self) -> Range<u32> {
-        self.y0..self.y1
+    /// The lines the master renders for `region` of an image rendered with `settings`: the
+    /// region's, or every line without one or with adaptive multisampling (a line's
+    /// neighbours decide which of its pixels are supersampled).
+    pub fn rendered_lines(region: Option<Region>, settings: &RenderSettings) -> Range<u32> {
+        match region {
+            Some(r) if !is_adaptive(settings) => r.y0..r.y1,
+            _ => 0..settings.height,
+        }
     }
 
-    /// The region's pixels, row by row, out of `rendered`: the `width`-wide lines from
-    /// `first` on (the region's own, or with adaptive multisampling the whole image's).
+    /// The region's pixels of line `y` out of `rendered`: the `width`-wide lines from `first`
+    /// on (the region's own, or with adaptive multisampling the whole image's).
+    fn row<'p>(&self, (width, first): (u32, u32), rendered: &'p [Pixel], y: u32) -> &'p [Pixel] {
+        let at = (y - first) as usize * width as usize;
+        &rendered[at + self.x0 as usize..at + self.x1 as usize]
+    }
+
+    /// The region's pixels, row by row, out of `rendered` (as for [`Region::row`]).
     pub fn crop(&self, width: u32, first: u32, rendered: &[Pixel]) -> Vec<Pixel> {
-        let w = width as usize;
         (self.y0..self.y1)
-            .flat_map(|y| {
-                let row = (y - first) as usize * w;
-                rendered[row + self.x0 as usize..row + self.x1 as usize]
-                    .iter()
-                    .copied()
-            })
+            .flat_map(|y| self.row((width, first), rendered, y).iter().copied())
             .collect()
     }
 
@@ -89,11 +96,13 @@ impl Region {
         background: Pixel,
     ) -> Vec<Pixel> {
         let mut image = vec![background; width as usize * height as usize];
-        let (x0, x1) = (self.x0 as usize, self.x1 as usize);
-        let part = self.crop(width, first, rendered);
-        for (y, row) in (self.y0..self.y1).zip(part.chunks_exact(x1 - x0)) {
+        for y in self.y0..self.y1 {
             let at = y as usize * width as usize;
-            image[at + x0..at + x1].copy_from_slice(row);
+            image[at + self.x0 as usize..at + self.x1 as usize].copy_from_slice(self.row(
+                (width, first),
+                rendered,
+                y,
+            ));
         }
         image
     }
