@@ -160,6 +160,38 @@ fn render_view_shows_the_image_as_it_fills_and_the_canvas_equals_the_file() -> T
     Ok(())
 }
 
+/// `render --view --region`, with and without adaptive multisampling (which renders every
+/// line): the page's canvas is the written region, and its progress reaches the lines the
+/// render delivered (all 240 lines with adaptive multisampling, the region's 120 without).
+#[test]
+fn render_view_with_a_region_shows_the_region_and_counts_its_lines() -> TestResult {
+    let Some(b) = browser()? else { return Ok(()) };
+    let dir = tempfile::tempdir()?;
+    for (run, extra, lines) in [
+        (1, &[][..], "120 / 120"),
+        (2, &["-m", "2", "--aa-threshold", "0.1"][..], "240 / 240"),
+    ] {
+        let out = dir.path().join(format!("region-{run}.bmp"));
+        let mut flags = vec!["--region", "40,60,200,180", "--workers", "1"];
+        flags.extend_from_slice(&["--view", "127.0.0.1:0"]);
+        flags.extend_from_slice(extra);
+        let size = support::Size {
+            width: 320,
+            height: 240,
+        };
+        let p = Proc::spawn(&support::render_args(size, &out, &flags))?;
+        let url = view_url(&p)?;
+        let (said, text) = p.wait_stderr(Duration::from_secs(60), |t| t.contains("until Ctrl-C"));
+        assert!(said, "the render did not finish:\n{text}");
+        b.open(&url)?;
+        wait_done(&b, 1)?;
+        assert_canvas_is_file(&b, &out)?;
+        let seen = b.run("return document.getElementById('lines').textContent;")?;
+        assert_eq!(seen, serde_json::json!(lines), "{extra:?}");
+    }
+    Ok(())
+}
+
 #[test]
 fn view_form_starts_stops_and_resumes_renders_that_follow_its_settings() -> TestResult {
     let Some(b) = browser()? else { return Ok(()) };

@@ -2,6 +2,7 @@
 //! every change, nothing missed), the limits on pages, the key beyond loopback, and a clear
 //! HTTP error for every bad request, with the render going on.
 
+use base64::Engine as _;
 use std::io::{BufRead as _, BufReader, Read as _, Write as _};
 use std::net::TcpStream;
 use std::sync::Arc;
@@ -9,8 +10,9 @@ use std::time::Duration;
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::stats::RayCounts;
 use strahl_host::cluster::master::FinalLine;
+use strahl_host::cluster::region::Region;
 use strahl_host::view::events::{Settings, Status};
-use strahl_host::view::hub::{Hub, MAX_VIEWERS, VIEWER_QUEUE};
+use strahl_host::view::hub::{Hub, Shown, MAX_VIEWERS, VIEWER_QUEUE};
 use strahl_host::view::server::{view_address, Control, ViewServer};
 
 type TestResult = Result<(), Box<dyn std::error::Error>>;
@@ -40,7 +42,7 @@ fn names(events: &[Arc<str>]) -> Vec<String> {
 #[test]
 fn a_new_page_gets_the_state_then_every_change_once() {
     let hub = Hub::new();
-    hub.begin(4, 3);
+    hub.begin(Shown::whole(4, 3));
     line(&hub, 0, 4, Some(1));
     line(&hub, 2, 4, None);
     let (snapshot, changes) = hub.subscribe().expect("room for a page");
@@ -69,10 +71,98 @@ fn a_new_page_gets_the_state_then_every_change_once() {
     );
 }
 
+/// The JSON data of a server-sent event.
+fn data(event: &str) -> serde_json::Value {
+    let json = event.lines().find_map(|l| l.strip_prefix("data: "));
+    serde_json::from_str(json.unwrap_or("null")).unwrap_or_default()
+}
+
+/// A line of `width` pixels whose red channel is the column, in the 8-bit value it becomes.
+fn columns_line(hub: &Hub, y: u32, width: u32) {
+    let pixels: Vec<Pixel> = (0..width).map(|x| Pixel([x as u16 * 257, 0, 0])).collect();
+    hub.line(&FinalLine {
+        y,
+        rays: RayCounts::default(),
+        pixels: &pixels,
+        worker: Some(0),
+    });
+}
+
+#[test]
+fn with_a_region_the_pages_get_its_rectangle_and_progress_counts_the_lines_delivered() {
+    // Columns 2..5 and lines 3..6 of a 8-wide image; the render delivers lines 0..10 (as with
+    // adaptive multisampling).
+    let rect = Region {
+        x0: 2,
+        y0: 3,
+        x1: 5,
+        y1: 6,
+    };
+    let hub = Hub::new();
+    hub.begin(Shown::part(8, rect, 0..10));
+    let (snapshot, changes) = hub.subscribe().expect("room for a page");
+    assert_eq!(
+        data(&snapshot[0]),
+        serde_json::json!({"run": 1, "width": 3, "height": 3, "left": 2, "top": 3})
+    );
+    for y in [0, 4, 9, 5] {
+        columns_line(&hub, y, 8);
+    }
+    // Lines outside the rectangle are counted, not sent; those inside carry its columns.
+    let sent: Vec<serde_json::Value> = changes.try_iter().map(|e| data(&e)).collect();
+    let ys: Vec<_> = sent.iter().map(|d| d["y"].clone()).collect();
+    assert_eq!(ys, [4, 5], "{sent:?}");
+    let rgb = base64::engine::general_purpose::STANDARD
+        .decode(sent[0]["rgb"].as_str().unwrap_or_default())
+        .unwrap_or_default();
+    assert_eq!(rgb, [2, 0, 0, 3, 0, 0, 4, 0, 0]);
+    // A new page is drawn the rectangle's lines alone, and the progress of all four.
+    let (snapshot, _) = hub.subscribe().expect("room for a page");
+    assert_eq!(
+        names(&snapshot),
+        ["begin", "line", "line", "workers", "progress", "status"]
+    );
+    let progress = data(&snapshot[4]);
+    assert_eq!(
+        (progress["done"].clone(), progress["total"].clone()),
+        (4.into(), 10.into())
+    );
+    // Lines the render does not deliver, or of another width, are not taken.
+    columns_line(&hub, 10, 8);
+    columns_line(&hub, 4, 7);
+    let (snapshot, _) = hub.subscribe().expect("room for a page");
+    assert_eq!(data(&snapshot[4])["done"], 4);
+}
+
+#[test]
+fn a_region_beyond_the_lines_delivered_is_cut_to_them() {
+    let rect = Region {
+        x0: 6,
+        y0: 2,
+        x1: 12,
+        y1: 9,
+    };
+    let shown = Shown::part(8, rect, 4..6);
+    assert_eq!(
+        shown.rect,
+        Region {
+            x0: 6,
+            y0: 4,
+            x1: 8,
+            y1: 6
+        }
+    );
+    let hub = Hub::new();
+    hub.begin(shown);
+    columns_line(&hub, 5, 8);
+    let (snapshot, _) = hub.subscribe().expect("room for a page");
+    assert_eq!(names(&snapshot)[..2], ["begin", "line"]);
+}
+
 #[test]
 fn a_page_that_falls_behind_is_dropped_and_the_others_stay() {
     let hub = Hub::new();
-    hub.begin(2, 1);
+    hub.begin(Shown::whole(2, 1));
     let (_, slow) = hub.subscribe().expect("room");
     let (_, fast) = hub.subscribe().expect("room");
     // (Subscribing the second page sent the first a keep-alive.)
@@ -261,7 +351,7 @@ fn beyond_loopback_the_view_needs_a_secret_and_then_its_key() -> TestResult {
 #[test]
 fn an_event_stream_sends_the_state_then_the_changes() -> TestResult {
     let hub = Hub::new();
-    hub.begin(3, 2);
+    hub.begin(Shown::whole(3, 2));
     line(&hub, 1, 3, Some(0));
     let server = ViewServer::start("127.0.0.1:0", hub.clone(), None, false, false)?;
     let mut s = TcpStream::connect(host_of(&server.url))?;

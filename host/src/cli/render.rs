@@ -26,7 +26,7 @@ use crate::output::{write_image, ImageKind};
 use crate::util::secret::{load_secret, Secret};
 use crate::util::usage::usage;
 use crate::view::events::Status;
-use crate::view::hub::Hub;
+use crate::view::hub::{Hub, Shown};
 use crate::view::server::{ViewServer, DEFAULT_VIEW};
 use anyhow::anyhow;
 use clap::Args;
@@ -735,7 +735,8 @@ fn render_and_write(
         Err(e) => return Err(with_resume_hint(e, take(checkpoint))),
     };
     if let Some(hub) = hub {
-        hub.begin(job.width, job.height);
+        let rect = args.region.unwrap_or(Region::whole(job.width, job.height));
+        hub.begin(Shown::part(job.width, rect, job.lines.clone()));
     }
     let on_final = |line: FinalLine<'_>| {
         if let Some(h) = hub {

@@ -57,6 +57,16 @@ impl Region {
         Ok(())
     }
 
+    /// The whole of a `width × height` image.
+    pub fn whole(width: u32, height: u32) -> Region {
+        Region {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
     /// Its size in pixels.
     pub fn size(&self) -> (u32, u32) {
         (self.x1 - self.x0, self.y1 - self.y0)

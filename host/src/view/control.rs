@@ -6,7 +6,7 @@
 //! checkpoint, so the image is the one an uninterrupted render gives.
 
 use super::events::{Settings, Status};
-use super::hub::Hub;
+use super::hub::{Hub, Shown};
 use super::server::Control;
 use crate::cluster::checkpoint::Record;
 use crate::cluster::executor::{start_workers, WorkerSources};
@@ -126,7 +126,7 @@ impl Renders {
         let prepared = PreparedScene::new(&loaded.desc, &OctreeParams::default())
             .map_err(|e| anyhow!("{}: {e}", loaded.data_path.display()))?;
         let s = prepared.scene.settings;
-        self.hub.begin(s.width, s.height);
+        self.hub.begin(Shown::whole(s.width, s.height));
         let sources = WorkerSources {
             worker: settings.tcp_workers.clone(),
             secret: self.master.secret.is_some(),

@@ -9,22 +9,27 @@ use strahl_core::render::stats::RayCounts;
 
 /// One change the pages are told about.
 pub enum Event<'a> {
-    /// A new render of this size begins: clear the canvas.
+    /// A new render begins: clear the canvas, which shows the rectangle of the image the
+    /// render writes (all of it but for `--region`).
     Begin {
         /// Which render (a page ignores lines of an older one).
         run: u64,
-        /// Image width in pixels.
+        /// The rectangle's width in pixels.
         width: u32,
-        /// Image height in pixels.
+        /// The rectangle's height in pixels.
         height: u32,
+        /// The image column of the rectangle's left side.
+        left: u32,
+        /// The image line of the rectangle's top.
+        top: u32,
     },
     /// A line's final pixels, 8-bit RGB as in the image file.
     Line {
-        /// The line, from the top.
+        /// The image line, from the image's top.
         y: u32,
         /// The worker that rendered it (its row in the table), if any.
         worker: Option<usize>,
-        /// `width × 3` bytes.
+        /// The rectangle's part of the line: its `width × 3` bytes.
         rgb: &'a [u8],
     },
     /// Lines done, rays, time.
@@ -41,9 +46,17 @@ impl Event<'_> {
     /// The event as the text of a server-sent event.
     pub fn to_sse(&self) -> Arc<str> {
         let (name, data) = match self {
-            Event::Begin { run, width, height } => (
+            Event::Begin {
+                run,
+                width,
+                height,
+                left,
+                top,
+            } => (
                 "begin",
-                serde_json::json!({"run": run, "width": width, "height": height}),
+                serde_json::json!({
+                    "run": run, "width": width, "height": height, "left": left, "top": top,
+                }),
             ),
             Event::Line { y, worker, rgb } => (
                 "line",

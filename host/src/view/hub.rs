@@ -1,9 +1,11 @@
 //! The live state of a render that pages watch, and the pages watching it.
 //!
 //! The master's hooks feed the [`Hub`] (a line's final pixels, the workers' states, the end);
-//! it keeps what a page needs to draw the render from scratch (the 8-bit image so far, who
-//! rendered each line, progress, the worker table, the status) and passes every change to the
-//! pages subscribed as server-sent events. A page that subscribes gets the whole state first,
+//! it keeps what a page needs to draw the render from scratch (the 8-bit pixels so far of the
+//! rectangle the render writes, who rendered each of its lines, progress, the worker table, the
+//! status) and passes every change to the pages subscribed as server-sent events. With
+//! `--region` the rectangle is the region ([`Shown`]): the hub holds its pixels alone, as the
+//! master holds the region's lines alone, and progress counts the lines the render delivers. A page that subscribes gets the whole state first,
 //! then the changes, with nothing missed or repeated between the two (both happen under one
 //! lock).
 //!
@@ -12,7 +14,9 @@
 
 use super::events::{self, Event, Settings, Status};
 use crate::cluster::master::FinalLine;
+use crate::cluster::region::Region;
 use crate::cluster::report::WorkerState;
+use std::ops::Range;
 use std::sync::mpsc::{sync_channel, Receiver, SyncSender, TrySendError};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::Instant;
@@ -45,13 +49,52 @@ struct State {
     viewers: Vec<SyncSender<Arc<str>>>,
 }
 
-/// The image of one render as far as it has come.
+/// What the pages see of a render: the rectangle of a `width`-wide image they draw, and the
+/// lines the render delivers (progress counts them). The rectangle's lines are among those.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shown {
+    /// The image's width: a line's pixels.
+    pub width: u32,
+    /// The rectangle drawn: the whole image, or `--region`'s.
+    pub rect: Region,
+    /// The lines the render delivers, `(first, end)`: the rectangle's, or with adaptive
+    /// multisampling every line ([`Region::rendered_lines`]).
+    pub lines: (u32, u32),
+}
+
+impl Shown {
+    /// The whole of a `width × height` image.
+    pub fn whole(width: u32, height: u32) -> Shown {
+        Shown::part(width, Region::whole(width, height), 0..height)
+    }
+
+    /// `rect` of a `width`-wide image, whose render delivers `lines`. The rectangle is cut to
+    /// the image's columns and to `lines`.
+    pub fn part(width: u32, rect: Region, lines: Range<u32>) -> Shown {
+        let (y0, y1) = (rect.y0.max(lines.start), rect.y1.min(lines.end));
+        let (x0, x1) = (rect.x0.min(width), rect.x1.min(width));
+        Shown {
+            width,
+            rect: Region {
+                x0,
+                y0: y0.min(y1),
+                x1: x1.max(x0),
+                y1,
+            },
+            lines: (lines.start, lines.end.max(lines.start)),
+        }
+    }
+}
+
+/// The rectangle of one render as far as it has come.
 struct Frame {
-    width: u32,
-    height: u32,
+    shown: Shown,
+    /// The rectangle's 8-bit pixels, row by row.
     rgb: Vec<u8>,
-    /// The worker of each line (`None`: not done, resumed, or the master's own).
+    /// The worker of each of the rectangle's lines (`None`: not done, resumed, or the master's
+    /// own).
     authors: Vec<Option<usize>>,
+    /// Per line delivered ([`Shown::lines`]): whether it is done.
     done: Vec<bool>,
     lines_done: u32,
     rays: RayCounts,
@@ -77,35 +120,30 @@ impl Hub {
         s.broadcast(event);
     }
 
-    /// A new render of `width × height` begins: the pages clear their canvas.
-    pub fn begin(&self, width: u32, height: u32) {
+    /// A new render begins, of which the pages see `shown`: they clear their canvas.
+    pub fn begin(&self, shown: Shown) {
         let mut s = self.lock();
         s.run += 1;
-        let pixels = width as usize * height as usize;
+        let (width, height) = shown.rect.size();
+        let (first, end) = shown.lines;
         s.frame = Some(Frame {
-            width,
-            height,
-            rgb: vec![0; pixels * 3],
+            shown,
+            rgb: vec![0; width as usize * height as usize * 3],
             authors: vec![None; height as usize],
-            done: vec![false; height as usize],
+            done: vec![false; (end - first) as usize],
             lines_done: 0,
             rays: RayCounts::default(),
             started: Instant::now(),
         });
         s.workers.clear();
         s.status = Status::Rendering;
-        let begin = Event::Begin {
-            run: s.run,
-            width,
-            height,
-        }
-        .to_sse();
-        s.broadcast(begin);
+        let begin = s.frame.as_ref().map(|f| f.begin_event(s.run));
+        s.broadcast_all(begin);
         let status = Event::Status(&s.status).to_sse();
         s.broadcast(status);
     }
 
-    /// A line's final pixels.
+    /// A line's final pixels. A line outside the rectangle counts for progress alone.
     pub fn line(&self, line: &FinalLine<'_>) {
         let mut s = self.lock();
         let Some(frame) = s.frame.as_mut() else {
@@ -171,6 +209,13 @@ impl Hub {
 }
 
 impl State {
+    /// Sends `event`, if any, to every page.
+    fn broadcast_all(&mut self, event: Option<Arc<str>>) {
+        if let Some(event) = event {
+            self.broadcast(event);
+        }
+    }
+
     /// Sends `event` to every page; drops a page whose queue is full or whose connection ended.
     fn broadcast(&mut self, event: Arc<str>) {
         self.viewers
@@ -187,19 +232,13 @@ impl State {
             out.push(Event::Settings(settings).to_sse());
         }
         if let Some(f) = &self.frame {
-            out.push(
-                Event::Begin {
-                    run: self.run,
-                    width: f.width,
-                    height: f.height,
-                }
-                .to_sse(),
-            );
-            for y in (0..f.height).filter(|&y| f.done[y as usize]) {
+            out.push(f.begin_event(self.run));
+            let rect = f.shown.rect;
+            for y in (rect.y0..rect.y1).filter(|&y| f.is_done(y)) {
                 out.push(
                     Event::Line {
                         y,
-                        worker: f.authors[y as usize],
+                        worker: f.authors[(y - rect.y0) as usize],
                         rgb: f.row(y),
                     }
                     .to_sse(),
@@ -216,7 +255,7 @@ impl State {
         let f = self.frame.as_ref()?;
         let progress = events::Progress::new(
             f.lines_done,
-            f.height,
+            f.done.len() as u32,
             f.rays,
             f.started.elapsed().as_secs_f64(),
         );
@@ -225,28 +264,62 @@ impl State {
 }
 
 impl Frame {
-    /// Puts a final line in; its 8-bit pixels, or `None` for a line outside the image.
+    /// The event that clears a page's canvas for render `run`.
+    fn begin_event(&self, run: u64) -> Arc<str> {
+        let rect = self.shown.rect;
+        let (width, height) = rect.size();
+        Event::Begin {
+            run,
+            width,
+            height,
+            left: rect.x0,
+            top: rect.y0,
+        }
+        .to_sse()
+    }
+
+    /// Whether image line `y`, one the render delivers, is done.
+    fn is_done(&self, y: u32) -> bool {
+        let at = y.wrapping_sub(self.shown.lines.0) as usize;
+        self.done.get(at).copied().unwrap_or(false)
+    }
+
+    /// Puts a final line in: counts it, and keeps the rectangle's part of it. That part's
+    /// 8-bit pixels, or `None` for a line of the wrong width, one the render does not deliver,
+    /// or one outside the rectangle.
     fn put(&mut self, line: &FinalLine<'_>) -> Option<&[u8]> {
-        let y = line.y as usize;
-        let w = self.width as usize;
-        if y >= self.height as usize || line.pixels.len() != w {
+        let Shown {
+            width,
+            rect,
+            lines: (first, _),
+        } = self.shown;
+        let at = line.y.wrapping_sub(first) as usize;
+        if at >= self.done.len() || line.pixels.len() != width as usize {
             return None;
         }
-        let row = &mut self.rgb[y * w * 3..(y + 1) * w * 3];
-        for (out, p) in row.chunks_exact_mut(3).zip(line.pixels) {
-            out.copy_from_slice(&p.to_rgb8());
-        }
-        if !self.done[y] {
-            self.done[y] = true;
+        if !self.done[at] {
+            self.done[at] = true;
             self.lines_done += 1;
         }
-        self.authors[y] = line.worker;
         self.rays += line.rays;
+        if !(rect.y0..rect.y1).contains(&line.y) {
+            return None;
+        }
+        let r = (line.y - rect.y0) as usize;
+        self.authors[r] = line.worker;
+        let w = rect.size().0 as usize * 3;
+        let row = &mut self.rgb[r * w..(r + 1) * w];
+        let pixels = &line.pixels[rect.x0 as usize..rect.x1 as usize];
+        for (out, p) in row.chunks_exact_mut(3).zip(pixels) {
+            out.copy_from_slice(&p.to_rgb8());
+        }
         Some(row)
     }
 
+    /// The rectangle's part of image line `y` (one of its lines).
     fn row(&self, y: u32) -> &[u8] {
-        let w = self.width as usize * 3;
-        &self.rgb[y as usize * w..(y as usize + 1) * w]
+        let w = self.shown.rect.size().0 as usize * 3;
+        let r = (y - self.shown.rect.y0) as usize;
+        &self.rgb[r * w..(r + 1) * w]
     }
 }

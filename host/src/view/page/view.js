@@ -5,8 +5,9 @@
 // The page's state; tests read it (window.strahl).
 const S = {
   run: 0, width: 0, height: 0,
+  top: 0,             // the image line of the canvas's first row (--region's top)
   image: null,        // ImageData: the 8-bit pixels as the image file has them
-  authors: [],        // worker of each line (null: none yet, resumed, or the master's own)
+  authors: [],        // worker of each row (null: none yet, resumed, or the master's own)
   linesDrawn: 0,      // line events drawn in this run
   status: null, progress: null, workers: [], settings: null,
 };
@@ -32,7 +33,7 @@ function decode(b64) {
   return out;
 }
 
-// Draws line y from S.image, tinted by its worker when the toggle is on.
+// Draws canvas row y from S.image, tinted by its worker when the toggle is on.
 function drawLine(y) {
   const w = S.width;
   const row = ctx.createImageData(w, 1);
@@ -53,7 +54,7 @@ function redraw() {
 }
 
 function begin(d) {
-  S.run = d.run; S.width = d.width; S.height = d.height; S.linesDrawn = 0;
+  S.run = d.run; S.width = d.width; S.height = d.height; S.top = d.top; S.linesDrawn = 0;
   canvas.width = d.width; canvas.height = d.height;
   S.image = ctx.createImageData(d.width, d.height);
   for (let i = 3; i < S.image.data.length; i += 4) S.image.data[i] = 255;
@@ -62,15 +63,16 @@ function begin(d) {
 }
 
 function line(d) {
-  if (!S.image || d.y >= S.height) return;
+  const y = d.y - S.top;
+  if (!S.image || y < 0 || y >= S.height) return;
   const rgb = decode(d.rgb);
   const px = S.image.data;
-  for (let x = 0, o = d.y * S.width * 4; x < S.width; x++, o += 4) {
+  for (let x = 0, o = y * S.width * 4; x < S.width; x++, o += 4) {
     px[o] = rgb[3 * x]; px[o + 1] = rgb[3 * x + 1]; px[o + 2] = rgb[3 * x + 2];
   }
-  S.authors[d.y] = d.worker;
+  S.authors[y] = d.worker;
   S.linesDrawn++;
-  drawLine(d.y);
+  drawLine(y);
 }
 
 function seconds(s) {
