@@ -152,6 +152,16 @@ impl Children {
         self.refs.len()
     }
 
+    /// The children that are not empty (bit `c` for child `c`): an interior node's mask of
+    /// them ([`Node`]). A child empty when its parent is split stays an empty leaf, since only
+    /// a leaf with primitives is split.
+    fn occupied(&self) -> u8 {
+        (0..8).fold(0, |mask, c| {
+            let start = if c == 0 { 0 } else { self.ends[c - 1] };
+            mask | u8::from(self.ends[c] > start) << c
+        })
+    }
+
     /// The lists as the children's [`Refs`], sharing one allocation.
     fn into_refs(self) -> [Refs; 8] {
         core::array::from_fn(|c| Refs {
@@ -470,7 +480,7 @@ impl Builder<'_> {
         self.bytes -= ENTRY_BYTES * n;
         self.nodes[node] = Node {
             first: self.nodes.len() as u32,
-            count: INTERIOR,
+            count: INTERIOR | u32::from(children.occupied()),
         };
         let mid = cell.center();
         for (c, refs) in children.into_refs().into_iter().enumerate() {
@@ -498,18 +508,6 @@ impl Builder<'_> {
             stats.leaves += 1;
             stats.empty_leaves += u32::from(count == 0);
             stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
-        }
-        // Each interior node notes which of its children are not empty leaves.
-        for i in 0..nodes.len() {
-            if !nodes[i].is_leaf() {
-                let first = nodes[i].first as usize;
-                let occupied = (0..8).fold(0u32, |mask, c| {
-                    let child = nodes[first + c];
-                    let empty = child.is_leaf() && child.count == 0;
-                    mask | u32::from(!empty) << c
-                });
-                nodes[i].count = INTERIOR | occupied;
-            }
         }
         // The reservation (`most_nodes`) is returned now that the leaf records are gone.
         nodes.shrink_to_fit();
@@ -636,5 +634,43 @@ mod tests {
             }
             assert_eq!(tally.counts(), expected, "{len} masks");
         }
+    }
+
+    /// Every interior node's mask, set when it was split, names exactly its children that are
+    /// not empty leaves in the finished tree: a child empty at the split stays so, and every
+    /// other stays occupied.
+    #[test]
+    fn an_interior_nodes_mask_names_its_children_that_are_not_empty() {
+        let mut next = xorshift(0x51ed_270b);
+        let mut coordinate = || (next() % 10_000) as f32 / 1000.0;
+        // Small triangles clustered in a few places of a large box: many empty children.
+        let triangles: Vec<[Vec3; 3]> = (0..3000)
+            .map(|k| {
+                let corner = Vec3::splat((k % 3) as f32 * 3.0);
+                let base = corner + Vec3::new(coordinate(), coordinate(), coordinate()) * 0.1;
+                let d = Vec3::new(coordinate(), coordinate(), coordinate()) * 0.01;
+                [
+                    base,
+                    base + Vec3::new(d.x, 0.0, d.z),
+                    base + Vec3::new(0.0, d.y, d.x),
+                ]
+            })
+            .collect();
+        let tree = Octree::build(&triangles, &OctreeParams::default());
+        let nodes = tree.nodes();
+        let (mut interior, mut empty) = (0, 0);
+        for node in nodes.iter().filter(|n| !n.is_leaf()) {
+            interior += 1;
+            for c in 0..8 {
+                let child = nodes[node.first as usize + c];
+                let is_empty = child.is_leaf() && child.count == 0;
+                empty += usize::from(is_empty);
+                assert_eq!(node.child_occupied(c), !is_empty, "{node:?} child {c}");
+            }
+        }
+        assert!(
+            interior > 50 && empty > 100,
+            "{interior} interior nodes, {empty} empty"
+        );
     }
 }
