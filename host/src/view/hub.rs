@@ -5,9 +5,9 @@
 //! rectangle the render writes, who rendered each of its lines, progress, the worker table, the
 //! status) and passes every change to the pages subscribed as server-sent events. With
 //! `--region` the rectangle is the region ([`Shown`]): the hub holds its pixels alone, as the
-//! master holds the region's lines alone, and progress counts the lines the render delivers. A page that subscribes gets the whole state first,
-//! then the changes, with nothing missed or repeated between the two (both happen under one
-//! lock).
+//! master holds the region's lines alone, and progress counts the lines the render delivers.
+//! A page that subscribes gets the whole state first, then the changes, with nothing missed or
+//! repeated between the two (both happen under one lock).
 //!
 //! The render never waits for a page: each page has a queue of [`VIEWER_QUEUE`] events, and a
 //! page whose queue is full is dropped (its browser reconnects and gets the state afresh).
@@ -124,21 +124,12 @@ impl Hub {
     pub fn begin(&self, shown: Shown) {
         let mut s = self.lock();
         s.run += 1;
-        let (width, height) = shown.rect.size();
-        let (first, end) = shown.lines;
-        s.frame = Some(Frame {
-            shown,
-            rgb: vec![0; width as usize * height as usize * 3],
-            authors: vec![None; height as usize],
-            done: vec![false; (end - first) as usize],
-            lines_done: 0,
-            rays: RayCounts::default(),
-            started: Instant::now(),
-        });
+        let frame = Frame::new(shown);
+        let begin = frame.begin_event(s.run);
+        s.frame = Some(frame);
         s.workers.clear();
         s.status = Status::Rendering;
-        let begin = s.frame.as_ref().map(|f| f.begin_event(s.run));
-        s.broadcast_all(begin);
+        s.broadcast(begin);
         let status = Event::Status(&s.status).to_sse();
         s.broadcast(status);
     }
@@ -209,13 +200,6 @@ impl Hub {
 }
 
 impl State {
-    /// Sends `event`, if any, to every page.
-    fn broadcast_all(&mut self, event: Option<Arc<str>>) {
-        if let Some(event) = event {
-            self.broadcast(event);
-        }
-    }
-
     /// Sends `event` to every page; drops a page whose queue is full or whose connection ended.
     fn broadcast(&mut self, event: Arc<str>) {
         self.viewers
@@ -264,6 +248,21 @@ impl State {
 }
 
 impl Frame {
+    /// Nothing drawn yet of `shown`.
+    fn new(shown: Shown) -> Frame {
+        let (width, height) = shown.rect.size();
+        let (first, end) = shown.lines;
+        Frame {
+            shown,
+            rgb: vec![0; width as usize * height as usize * 3],
+            authors: vec![None; height as usize],
+            done: vec![false; (end - first) as usize],
+            lines_done: 0,
+            rays: RayCounts::default(),
+            started: Instant::now(),
+        }
+    }
+
     /// The event that clears a page's canvas for render `run`.
     fn begin_event(&self, run: u64) -> Arc<str> {
         let rect = self.shown.rect;
