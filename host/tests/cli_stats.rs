@@ -103,7 +103,7 @@ fn stats_json_describes_the_render() -> TestResult {
             .is_some_and(|o| o.ends_with("room.bmp")),
         "{s:#}"
     );
-    for key in ["total", "load", "octree", "tracing", "writing"] {
+    for key in ["total", "load", "preparing", "octree", "tracing", "writing"] {
         assert!(
             s["seconds"][key].as_f64().is_some_and(|t| t >= 0.0),
             "seconds.{key} in {s:#}"
@@ -114,6 +114,13 @@ fn stats_json_describes_the_render() -> TestResult {
     let secs = |key: &str| s["seconds"][key].as_f64().unwrap_or(f64::NAN);
     assert!(
         secs("tracing") + secs("writing") <= secs("total"),
+        "seconds in {s:#}"
+    );
+    // The octree's build is part of the scene's preparation, and that of the total.
+    assert!(
+        secs("octree") > 0.0
+            && secs("octree") < secs("preparing")
+            && secs("load") + secs("preparing") + secs("tracing") <= secs("total"),
         "seconds in {s:#}"
     );
 

@@ -1,7 +1,9 @@
 //! [`Scene`], the prepared form of a [`SceneDesc`]: validated, with smooth vertex normals (the
 //! area-weighted average of the adjacent faces' normals, seed section 3.2.2.1), solids, the
 //! resolved occlusion distance, the derived effects, the octree and the lights' buffers.
-//! Renderers only ever see a [`Scene`].
+//! Renderers only ever see a [`Scene`]. It is built in three stages: [`SceneGeometry`] (the
+//! validated geometry), [`IndexedGeometry`] (with its octree) and the scene, so that a caller
+//! with a clock can time the octree's build alone.
 
 use super::camera::CameraFrame;
 use super::effects::{shadow_ray_matters, Effects};
@@ -98,6 +100,10 @@ impl Scene {
     /// the buffers left (the queries then gather them per leaf). Either way the answers are the
     /// same.
     ///
+    /// The three stages are [`SceneGeometry::new`], [`SceneGeometry::index`] (the octree) and
+    /// [`IndexedGeometry::into_scene`]; a caller with a clock runs them itself to time the
+    /// octree's build alone.
+    ///
     /// # Errors
     /// As [`Scene::build`].
     pub fn build_within(
@@ -105,24 +111,86 @@ impl Scene {
         params: &OctreeParams,
         buffer_memory: u64,
     ) -> Result<Scene, SceneError> {
+        let geometry = SceneGeometry::new(desc)?;
+        Ok(geometry.index(params).into_scene(buffer_memory))
+    }
+}
+
+/// A scene's geometry as its octree files it, before the octree is built: validated, its
+/// triangles' points and smooth normals, its solids. The first stage of
+/// [`Scene::build_within`].
+pub struct SceneGeometry<'a> {
+    desc: &'a SceneDesc,
+    triangle_points: Vec<[Vec3; 3]>,
+    triangle_normals: Vec<[Vec3; 3]>,
+    degenerate: u32,
+    solids: Solids,
+    extents: Vec<SolidExtent>,
+}
+
+/// A scene's geometry and the octree over it: the second stage of [`Scene::build_within`].
+pub struct IndexedGeometry<'a> {
+    geometry: SceneGeometry<'a>,
+    octree: Octree,
+}
+
+impl<'a> SceneGeometry<'a> {
+    /// Validates `desc` and prepares its geometry.
+    ///
+    /// # Errors
+    /// As [`Scene::build`].
+    pub fn new(desc: &'a SceneDesc) -> Result<SceneGeometry<'a>, SceneError> {
         desc.validate()?;
         let triangle_points: Vec<[Vec3; 3]> = desc
             .triangles
             .iter()
             .map(|t| t.points.map(|i| desc.points[i as usize]))
             .collect();
-        let (mut triangle_normals, mut degenerate) = smooth_normals(desc, &triangle_points);
+        let (triangle_normals, mut degenerate) = smooth_normals(desc, &triangle_points);
         degenerate += desc
             .solid_triangles
             .iter()
             .filter(|p| unit_normal(p).is_none())
             .count() as u32;
         let solids = Solids::new(&desc.solids, &desc.objects, &desc.solid_triangles);
+        let extents = solids.extents();
+        Ok(SceneGeometry {
+            desc,
+            triangle_points,
+            triangle_normals,
+            degenerate,
+            solids,
+            extents,
+        })
+    }
+
+    /// Builds the octree over the triangles and the bounded solids with `params`.
+    pub fn index(self, params: &OctreeParams) -> IndexedGeometry<'a> {
+        let octree = Octree::build_mixed(&self.triangle_points, &self.extents, params);
+        IndexedGeometry {
+            geometry: self,
+            octree,
+        }
+    }
+}
+
+impl IndexedGeometry<'_> {
+    /// The scene: the structures beside the octree (the lights' buffers within `buffer_memory`
+    /// bytes, the large leaves' sphere groups, the glass spheres' insides), the triangles'
+    /// shading, the camera and the effects.
+    pub fn into_scene(self, buffer_memory: u64) -> Scene {
+        let IndexedGeometry { geometry, octree } = self;
+        let SceneGeometry {
+            desc,
+            triangle_points,
+            mut triangle_normals,
+            degenerate,
+            solids,
+            extents,
+        } = geometry;
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())
             .collect();
-        let extents = solids.extents();
-        let octree = Octree::build_mixed(&triangle_points, &extents, params);
         let bounds = octree.bounds();
         let stats = octree.stats();
         let occupied = stats.leaves - stats.empty_leaves;
@@ -163,7 +231,7 @@ impl Scene {
             // 36 bytes a triangle no hit reads (SPD's tetra and mount).
             triangle_normals = Vec::new();
         }
-        Ok(Scene {
+        Scene {
             light_buffers,
             sphere_interiors,
             settings: desc.settings,
@@ -183,7 +251,7 @@ impl Scene {
             octree,
             group_spheres,
             leaf_spheres,
-        })
+        }
     }
 }
 

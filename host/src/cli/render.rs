@@ -460,7 +460,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
 
     let build_start = Instant::now();
     let prepared = prepare(&loaded)?;
-    let octree_build = build_start.elapsed();
+    let preparing = build_start.elapsed();
     let lines = Region::rendered_lines(args.region, &prepared.scene.settings);
     let job = prepared.job().limited_to(lines);
     let progress = Progress::new(job.lines.len() as u32, args.quiet);
@@ -502,7 +502,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     let times = Times {
         total: written.duration_since(start),
         load,
-        octree_build,
+        preparing,
         // Waiting for workers and the scene's transfer are not tracing, nor is writing the
         // file (POV-Ray's `Trace Time` ends before its file is written, too).
         render: complete.saturating_duration_since(traced_from),
@@ -559,7 +559,7 @@ fn check_before_render(args: &RenderArgs) -> anyhow::Result<Checked> {
 struct Times {
     total: Duration,
     load: Duration,
-    octree_build: Duration,
+    preparing: Duration,
     render: Duration,
     writing: Duration,
 }
@@ -589,7 +589,8 @@ fn report(
         height: scene.settings.height,
         total: times.total,
         load: times.load,
-        octree_build: times.octree_build,
+        preparing: times.preparing,
+        octree_build: prepared.octree_build,
         render: times.render,
         writing: times.writing,
         triangles: scene.triangle_points.len(),

@@ -4,10 +4,12 @@
 use crate::cluster::master::{AdaptiveJob, ClusterJob};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::Arc;
+use std::time::{Duration, Instant};
 use strahl_core::accel::octree::OctreeParams;
 use strahl_core::render::ray_limit::LineRayLimits;
 use strahl_core::scene::effects::is_adaptive;
 use strahl_core::scene::error::SceneError;
+use strahl_core::scene::prepared::SceneGeometry;
 use strahl_core::scene::{Scene, SceneDesc};
 use strahl_core::wire::error::ProtocolError;
 use strahl_core::wire::scene_blob::SceneBlob;
@@ -31,23 +33,31 @@ pub struct PreparedScene {
     pub scene: Arc<Scene>,
     /// Its encoding, sent to other workers.
     pub blob: Arc<SceneBlob>,
+    /// How long its octree took to build, of the whole preparation.
+    pub octree_build: Duration,
 }
 
 /// Job numbers: distinct within a process, so a worker never mixes two renders' requests.
 static NEXT_JOB: AtomicU32 = AtomicU32::new(1);
 
 impl PreparedScene {
-    /// Builds the scene with `params` and encodes it.
+    /// Builds the scene with `params` ([`Scene::build`], its octree's build timed) and encodes
+    /// it.
     ///
     /// # Errors
     /// [`PrepareError::Scene`] if the scene is not valid, [`PrepareError::Protocol`] if it is
     /// too large to send.
     pub fn new(desc: &SceneDesc, params: &OctreeParams) -> Result<Self, PrepareError> {
-        let scene = Scene::build(desc, params).map_err(PrepareError::Scene)?;
+        let geometry = SceneGeometry::new(desc).map_err(PrepareError::Scene)?;
+        let start = Instant::now();
+        let indexed = geometry.index(params);
+        let octree_build = start.elapsed();
+        let scene = indexed.into_scene(u64::MAX);
         let blob = SceneBlob::encode(desc, params).map_err(PrepareError::Protocol)?;
         Ok(PreparedScene {
             scene: Arc::new(scene),
             blob: Arc::new(blob),
+            octree_build,
         })
     }
 
