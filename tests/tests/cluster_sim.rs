@@ -920,11 +920,14 @@ fn worker_hung_when_the_image_completes_is_lost_in_the_report_and_the_last_tick(
     let want = reference(&prepared);
     let cache = prepared.cache();
     // It hangs at its 3rd frame: its first result, or an answer to a repeated Hello or Job.
-    // The other worker finishes the image (copies of the hung one's lines included) long before
-    // the 1.5 s time-out, so the time-out comes while the master waits for the links to close;
-    // until 2026-11-29 the master waited its 2 s out there and reported the worker `ok`. (On a
-    // machine too slow for that, it comes during the render, with the same outcome.)
-    // A simulated hang ends when the master hangs up; a hung machine would not notice.
+    // The other worker joins once the hung one holds lines (the first tick that shows it busy;
+    // joined from the start, it could finish the image, on a loaded machine, before the hung
+    // one was given any), and finishes the image (copies of the hung one's lines included)
+    // long before the 1.5 s time-out. So the time-out comes while the master waits for the
+    // links to close; until 2026-11-29 the master waited its 2 s out there and reported the
+    // worker `ok`. (On a machine too slow for that, it comes during the render, with the same
+    // outcome.) A simulated hang ends when the master hangs up; a hung machine would not
+    // notice.
     let hung = Link {
         hang_up: Box::new(|| {}),
         ..sim(
@@ -936,9 +939,20 @@ fn worker_hung_when_the_image_completes_is_lost_in_the_report_and_the_last_tick(
             &cache,
         )
     };
-    let steady = sim(2, SimWorker::default(), &cache);
+    let (join_tx, join_rx) = mpsc::channel::<Link>();
+    let steady = Mutex::new(Some((join_tx, sim(2, SimWorker::default(), &cache))));
     let last = Mutex::new(Vec::new());
-    let on_tick = |w: &[WorkerState]| *last.lock().expect("not poisoned") = w.to_vec();
+    let on_tick = |w: &[WorkerState]| {
+        let busy = w
+            .iter()
+            .any(|w| w.report.address == "sim 1" && w.activity == Activity::Busy);
+        if busy {
+            if let Some((tx, link)) = steady.lock().expect("not poisoned").take() {
+                tx.send(link).expect("the master takes joining workers");
+            }
+        }
+        *last.lock().expect("not poisoned") = w.to_vec();
+    };
     let hooks = Hooks {
         on_line: &|_, _| {},
         log: &|_| {},
@@ -949,7 +963,7 @@ fn worker_hung_when_the_image_completes_is_lost_in_the_report_and_the_last_tick(
         stop: None,
     };
     let opts = options(2, 1500);
-    let image = run_master_with(&prepared.job(), vec![hung, steady], None, &opts, &hooks)
+    let image = run_master_with(&prepared.job(), vec![hung], Some(&join_rx), &opts, &hooks)
         .expect("the render completes without the hung worker");
     assert_same_image(&image, &want, "a worker hung at the end");
     let workers = &image.workers;
