@@ -176,9 +176,14 @@ impl<'a> SceneGeometry<'a> {
 
 impl IndexedGeometry<'_> {
     /// The scene: the structures beside the octree (the lights' buffers within `buffer_memory`
-    /// bytes, the large leaves' sphere groups, the glass spheres' insides), the triangles'
-    /// shading, the camera and the effects.
+    /// bytes, the large leaves' sphere groups in what the buffers leave, the glass spheres'
+    /// insides), the triangles' shading, the camera and the effects.
     pub fn into_scene(self, buffer_memory: u64) -> Scene {
+        let light_buffers = self.light_buffers_within(buffer_memory);
+        let buffers: u64 = light_buffers.iter().flatten().map(LightBuffer::bytes).sum();
+        let (group_spheres, leaf_spheres) =
+            self.sphere_groups_within(buffer_memory.saturating_sub(buffers));
+        let sphere_interiors = self.sphere_interiors();
         let IndexedGeometry { geometry, octree } = self;
         let SceneGeometry {
             desc,
@@ -186,45 +191,12 @@ impl IndexedGeometry<'_> {
             mut triangle_normals,
             degenerate,
             solids,
-            extents,
+            ..
         } = geometry;
         let unbounded = (0..solids.len() as u32)
             .filter(|&j| solids.bounds()[j as usize].is_none())
             .collect();
         let bounds = octree.bounds();
-        let stats = octree.stats();
-        let occupied = stats.leaves - stats.empty_leaves;
-        let group_spheres = solids.has_lone_spheres()
-            && stats.references as usize >= GROUP * occupied.max(1) as usize;
-        let filed = Filed {
-            bounds,
-            triangles: &triangle_points,
-            extents: &extents,
-        };
-        let light_buffers = light_buffers(desc, &filed, buffer_memory);
-        let buffers: u64 = light_buffers.iter().flatten().map(LightBuffer::bytes).sum();
-        let leaf_spheres = if group_spheres {
-            let n = triangle_points.len() as u32;
-            let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
-            LeafSpheres::build(&octree, sphere_of, buffer_memory.saturating_sub(buffers))
-        } else {
-            LeafSpheres::default()
-        };
-        // Rays start inside a lone sphere only where they can refract into it.
-        let transparent = |j: u32| {
-            solids.lone_sphere(j).is_some()
-                && solids
-                    .object_shader(j)
-                    .and_then(|s| desc.shaders.get(s as usize))
-                    .is_some_and(|s| s.transparency > 0.0)
-        };
-        let spheres = (0..solids.len() as u32)
-            .filter(|&j| transparent(j))
-            .filter_map(|j| Some((j, solids.bounds()[j as usize]?)));
-        let n = triangle_points.len() as u32;
-        let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
-        let sphere_interiors =
-            SphereInteriors::build(&octree, &triangle_points, &extents, spheres, sphere_of);
         let shaders = desc.triangles.iter().map(|t| t.shader);
         let triangle_shading = TriangleShadings::new(&triangle_points, &triangle_normals, shaders);
         if triangle_shading.all_flat() {
@@ -252,6 +224,57 @@ impl IndexedGeometry<'_> {
             group_spheres,
             leaf_spheres,
         }
+    }
+
+    /// Each light's buffer ([`Scene::light_buffers`]) within `memory` bytes.
+    fn light_buffers_within(&self, memory: u64) -> Vec<Option<LightBuffer>> {
+        let g = &self.geometry;
+        let filed = Filed {
+            bounds: self.octree.bounds(),
+            triangles: &g.triangle_points,
+            extents: &g.extents,
+        };
+        light_buffers(g.desc, &filed, memory)
+    }
+
+    /// Whether the queries test lone spheres in groups ([`Scene::group_spheres`]), and then the
+    /// large leaves' groups within `memory` bytes ([`Scene::leaf_spheres`]).
+    fn sphere_groups_within(&self, memory: u64) -> (bool, LeafSpheres) {
+        let (g, stats) = (&self.geometry, self.octree.stats());
+        let occupied = stats.leaves - stats.empty_leaves;
+        let grouped = g.solids.has_lone_spheres()
+            && stats.references as usize >= GROUP * occupied.max(1) as usize;
+        if !grouped {
+            return (false, LeafSpheres::default());
+        }
+        let n = g.triangle_points.len() as u32;
+        let sphere_of = |i: u32| g.solids.lone_sphere(i.checked_sub(n)?);
+        (true, LeafSpheres::build(&self.octree, sphere_of, memory))
+    }
+
+    /// The transparent lone spheres' insides ([`Scene::sphere_interiors`]): rays start inside a
+    /// lone sphere only where they can refract into it.
+    fn sphere_interiors(&self) -> SphereInteriors {
+        let (g, solids) = (&self.geometry, &self.geometry.solids);
+        let transparent = |j: u32| {
+            solids.lone_sphere(j).is_some()
+                && solids
+                    .object_shader(j)
+                    .and_then(|s| g.desc.shaders.get(s as usize))
+                    .is_some_and(|s| s.transparency > 0.0)
+        };
+        let spheres = (0..solids.len() as u32)
+            .filter(|&j| transparent(j))
+            .filter_map(|j| Some((j, solids.bounds()[j as usize]?)));
+        let n = g.triangle_points.len() as u32;
+        let sphere_of = |i: u32| solids.lone_sphere(i.checked_sub(n)?);
+        SphereInteriors::build(
+            &self.octree,
+            &g.triangle_points,
+            &g.extents,
+            spheres,
+            sphere_of,
+        )
     }
 }
 
