@@ -28,7 +28,6 @@ use crate::accel::prefetch::prefetch;
 use crate::geom::solid::extent::SolidExtent;
 use crate::geom::triangle::unit_normal;
 use crate::math::aabb::Aabb;
-use alloc::rc::Rc;
 use alloc::vec::Vec;
 use glam::Vec3;
 
@@ -85,6 +84,11 @@ struct Builder<'a> {
     nodes: Vec<Node>,
     /// Per node: its primitives while it is a leaf (`None` once it is split).
     leaves: Vec<Option<Refs>>,
+    /// Every primitive list of the build, one after another: the root's, then each appraisal's
+    /// children's lists ([`Children`]). A leaf's list is a range of it ([`Refs`]), so a split
+    /// copies nothing and no list is allocated or freed on its own; only an appraisal whose
+    /// split would not pay gives its lists back (they are the last).
+    lists: Vec<u32>,
     /// The leaves in the queue, by slot; a slot is reused once its leaf leaves the queue.
     queued: Vec<Queued>,
     free: Vec<u32>,
@@ -108,28 +112,17 @@ struct Queued {
     children: Option<Children>,
 }
 
-/// A leaf's primitives: a range of a list it shares with its siblings (their parent's children
-/// lists, made in one allocation when the parent was appraised), so a split copies nothing. The
-/// list is freed when the last leaf over it is split or the tree is laid out.
+/// A leaf's primitives: the range `start..end` of the build's lists ([`Builder::lists`]).
+#[derive(Clone, Copy)]
 struct Refs {
-    list: Rc<[u32]>,
     start: u32,
     end: u32,
 }
 
 impl Refs {
-    /// The whole of `list`.
-    fn all(list: Vec<u32>) -> Refs {
-        let end = list.len() as u32;
-        Refs {
-            list: Rc::from(list),
-            start: 0,
-            end,
-        }
-    }
-
-    fn get(&self) -> &[u32] {
-        &self.list[self.start as usize..self.end as usize]
+    /// Its entries in `lists`.
+    fn get(self, lists: &[u32]) -> &[u32] {
+        &lists[self.start as usize..self.end as usize]
     }
 
     fn len(&self) -> usize {
@@ -137,38 +130,34 @@ impl Refs {
     }
 }
 
-/// The primitive lists of a cell's eight children, in one allocation: child `c`'s are
-/// `refs[start(c)..ends[c]]`, where `start(0)` is 0 and `start(c)` is `ends[c − 1]`. Kept in
-/// the leaf's [`Queued`] slot itself: a box of its own cost an allocation per appraisal and a
-/// second load from far away when the leaf is split.
+/// The primitive lists of a cell's eight children, one after another in the build's lists:
+/// child `c`'s are the range `start(c)..ends[c]`, where `start(0)` is `start` and `start(c)`
+/// is `ends[c − 1]`. Kept in the leaf's [`Queued`] slot itself.
+#[derive(Clone, Copy)]
 struct Children {
-    refs: Rc<[u32]>,
+    start: u32,
     ends: [u32; 8],
 }
 
 impl Children {
+    /// Child `c`'s list.
+    fn refs(&self, c: usize) -> Refs {
+        Refs {
+            start: if c == 0 { self.start } else { self.ends[c - 1] },
+            end: self.ends[c],
+        }
+    }
+
     /// Entries over all eight lists.
     fn total(&self) -> usize {
-        self.refs.len()
+        (self.ends[7] - self.start) as usize
     }
 
     /// The children that are not empty (bit `c` for child `c`): an interior node's mask of
     /// them ([`Node`]). A child empty when its parent is split stays an empty leaf, since only
     /// a leaf with primitives is split.
     fn occupied(&self) -> u8 {
-        (0..8).fold(0, |mask, c| {
-            let start = if c == 0 { 0 } else { self.ends[c - 1] };
-            mask | u8::from(self.ends[c] > start) << c
-        })
-    }
-
-    /// The lists as the children's [`Refs`], sharing one allocation.
-    fn into_refs(self) -> [Refs; 8] {
-        core::array::from_fn(|c| Refs {
-            list: Rc::clone(&self.refs),
-            start: if c == 0 { 0 } else { self.ends[c - 1] },
-            end: self.ends[c],
-        })
+        (0..8).fold(0, |mask, c| mask | u8::from(self.refs(c).len() > 0) << c)
     }
 }
 
@@ -197,6 +186,12 @@ impl Octree {
         let budget = (BYTES_PER_PRIMITIVE * filed.len()).max(MIN_BUDGET);
         let (filed, large, tree_bounds) = set_apart_large(filed, &world, bounds);
         let root = root_cell(tree_bounds);
+        let root_refs = Refs {
+            start: 0,
+            end: filed.len() as u32,
+        };
+        let mut lists = Vec::with_capacity(LISTS_RESERVED * (budget / ENTRY_BYTES) + filed.len());
+        lists.extend_from_slice(&filed);
         let mut b = Builder {
             filing: Filing {
                 triangles,
@@ -207,6 +202,7 @@ impl Octree {
             params,
             nodes: Vec::with_capacity(most_nodes(budget)),
             leaves: Vec::with_capacity(most_nodes(budget)),
+            lists,
             queued: Vec::new(),
             free: Vec::new(),
             queue: Queue::default(),
@@ -215,7 +211,7 @@ impl Octree {
             masks: Vec::new(),
             budget,
         };
-        b.add_leaf(root, 0, Refs::all(filed));
+        b.add_leaf(root, 0, root_refs);
         while let Some(key) = b.queue.pop() {
             let (node, slot) = queue_entry(key);
             if let Some(next) = b.queue.peek() {
@@ -278,6 +274,13 @@ fn most_nodes(budget: usize) -> usize {
 
 /// The smallest budget in bytes, so that small scenes still get a few levels.
 const MIN_BUDGET: usize = 64 * 1024;
+
+/// How many times the entries a tree within its budget can hold the build reserves for its
+/// lists ([`Builder::lists`]), which keep every appraisal's lists to the end: a build of SPD's
+/// scenes appends 0.7 (tetra_8) to 2.1 (gears_4) times that many, 3.3 on shells_6, where the
+/// list grows once; the demo room 1.5. So the list is seldom copied as it grows, and a host
+/// does not touch the reserved pages it never fills.
+const LISTS_RESERVED: usize = 2;
 
 /// The primitives to file (non-degenerate triangles, bounded solids) with their world boxes, and
 /// each solid's box as the build files it (where its test can hit; empty if it is unbounded).
@@ -409,12 +412,9 @@ impl Builder<'_> {
 
     /// Asks for what [`Builder::step`] reads first for the queue's entry `key` beyond the two
     /// records [`Builder::prefetch_step`] asked for a step ago (so reading them here mostly
-    /// finds them in the cache): for a leaf already appraised, the counts of its children's
-    /// list (its split clones it eight times) and of the list it shares with its siblings (the
-    /// split lets go of its share); for another, the start of its list (its appraisal reads it
-    /// first). A list's count is asked for through its first entry, whose cache line holds it
-    /// too unless the allocation starts in a line's last 16 bytes. `perf annotate` of SPD's
-    /// mount_8's build showed each of the three loads waited on.
+    /// finds them in the cache): for a leaf not yet appraised, the start of its list (its
+    /// appraisal reads it first). A split reads no list. `perf annotate` of SPD's mount_8's
+    /// build showed that load waited on.
     #[inline(always)]
     fn prefetch_lists(&self, key: u128) {
         let (node, slot) = queue_entry(key);
@@ -422,17 +422,10 @@ impl Builder<'_> {
         else {
             return;
         };
-        let first = match &queued.children {
-            Some(children) => {
-                if let Some(count_side) = children.refs.first() {
-                    prefetch(count_side);
-                }
-                refs.list.first()
+        if queued.children.is_none() {
+            if let Some(first) = self.lists.get(refs.start as usize) {
+                prefetch(first);
             }
-            None => refs.get().first(),
-        };
-        if let Some(first) = first {
-            prefetch(first);
         }
     }
 
@@ -441,7 +434,7 @@ impl Builder<'_> {
     /// appraised one is split. Returns false when that split would pass the budget: the build
     /// ends there.
     fn step(&mut self, node: usize, slot: usize) -> bool {
-        let Some(refs) = self.leaves[node].as_ref() else {
+        let Some(refs) = self.leaves[node] else {
             return true;
         };
         let queued = &self.queued[slot];
@@ -449,7 +442,7 @@ impl Builder<'_> {
             return self.split_if_it_fits(node, slot);
         }
         let (cell, depth, n) = (queued.cell, queued.depth, refs.len());
-        let children = self.split(node, &cell);
+        let children = self.split(refs, &cell);
         let total = children.total();
         let gain = split_gain(n, total);
         if gain > 0.0 {
@@ -458,6 +451,8 @@ impl Builder<'_> {
             self.queue.push(queue_key(p, node, slot as u32));
             self.queued[slot].children = Some(children);
         } else {
+            // The lists just appended are the last ones, and nothing refers to them.
+            self.lists.truncate(children.start as usize);
             self.free.push(slot as u32);
         }
         true
@@ -470,7 +465,7 @@ impl Builder<'_> {
             return true;
         };
         let (cell, depth) = (self.queued[slot].cell, self.queued[slot].depth);
-        let n = self.leaves[node].as_ref().map_or(0, Refs::len);
+        let n = self.leaves[node].map_or(0, |refs| refs.len());
         let total = children.total();
         if self.bytes + 8 * NODE_BYTES + ENTRY_BYTES * total > self.budget + ENTRY_BYTES * n {
             return false;
@@ -483,8 +478,8 @@ impl Builder<'_> {
             count: INTERIOR | u32::from(children.occupied()),
         };
         let mid = cell.center();
-        for (c, refs) in children.into_refs().into_iter().enumerate() {
-            self.add_leaf(child_box(&cell, mid, c), depth + 1, refs);
+        for c in 0..8 {
+            self.add_leaf(child_box(&cell, mid, c), depth + 1, children.refs(c));
         }
         true
     }
@@ -504,7 +499,7 @@ impl Builder<'_> {
                 first: indices.len() as u32,
                 count,
             };
-            indices.extend_from_slice(refs.get());
+            indices.extend_from_slice(refs.get(&self.lists));
             stats.leaves += 1;
             stats.empty_leaves += u32::from(count == 0);
             stats.max_leaf_triangles = stats.max_leaf_triangles.max(count);
@@ -517,13 +512,15 @@ impl Builder<'_> {
         (nodes, indices, stats)
     }
 
-    /// The primitives of leaf `node` (whose cell is `cell`) that each child of the cell touches.
-    fn split(&mut self, node: usize, cell: &Aabb) -> Children {
+    /// The primitives of the list `leaf` (a leaf's, whose cell is `cell`) that each child of the
+    /// cell touches, appended to the build's lists.
+    fn split(&mut self, leaf: Refs, cell: &Aabb) -> Children {
         // First which children each primitive touches, then the lists, each of exactly its size.
         let cells = ChildCells::new(cell, self.filing.margin);
         let mut masks = core::mem::take(&mut self.masks);
         masks.clear();
-        let refs = self.leaves[node].as_ref().map_or(&[][..], Refs::get);
+        let base = self.lists.len();
+        let refs = leaf.get(&self.lists);
         let mut tally = Tally::default();
         for &t in refs.iter().take(PREFETCH_AHEAD) {
             self.filing.prefetch(t as usize);
@@ -541,17 +538,21 @@ impl Builder<'_> {
             ends[c] += ends[c - 1];
         }
         let mut next: [u32; 8] = core::array::from_fn(|c| if c == 0 { 0 } else { ends[c - 1] });
-        let mut lists: Rc<[u32]> = core::iter::repeat_n(0, ends[7] as usize).collect();
-        if let Some(out) = Rc::get_mut(&mut lists) {
-            for (&t, &mask) in refs.iter().zip(&masks) {
-                for c in bits(mask) {
-                    out[next[c] as usize] = t;
-                    next[c] += 1;
-                }
+        let end = self.lists.len() + ends[7] as usize;
+        self.lists.resize(end, 0);
+        let (before, out) = self.lists.split_at_mut(base);
+        let refs = leaf.get(before);
+        for (&t, &mask) in refs.iter().zip(&masks) {
+            for c in bits(mask) {
+                out[next[c] as usize] = t;
+                next[c] += 1;
             }
         }
         self.masks = masks;
-        Children { refs: lists, ends }
+        Children {
+            start: base as u32,
+            ends: ends.map(|e| base as u32 + e),
+        }
     }
 }
 
