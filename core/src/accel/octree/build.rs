@@ -101,6 +101,8 @@ struct Builder<'a> {
     /// Scratch for [`Builder::split`]: which children each primitive touches.
     masks: Vec<u8>,
     budget: usize,
+    /// The most entries `lists` may hold ([`MOST_LISTED`]).
+    most_listed: usize,
 }
 
 /// A leaf of the tree being built that is queued to be split: its cell and depth and, once
@@ -176,6 +178,16 @@ impl Octree {
         solids: &[SolidExtent],
         params: &OctreeParams,
     ) -> Octree {
+        Self::build_listing_at_most(triangles, solids, params, MOST_LISTED)
+    }
+
+    /// [`Octree::build_mixed`] with its lists ending the build at `most_listed` entries.
+    fn build_listing_at_most(
+        triangles: &[[Vec3; 3]],
+        solids: &[SolidExtent],
+        params: &OctreeParams,
+        most_listed: usize,
+    ) -> Octree {
         let params = OctreeParams {
             max_depth: params.max_depth.min(MAX_DEPTH_LIMIT),
             max_leaf_triangles: params.max_leaf_triangles.max(1),
@@ -210,6 +222,7 @@ impl Octree {
             bytes: 0,
             masks: Vec::new(),
             budget,
+            most_listed,
         };
         b.add_leaf(root, 0, root_refs);
         while let Some(key) = b.queue.pop() {
@@ -281,6 +294,10 @@ const MIN_BUDGET: usize = 64 * 1024;
 /// list grows once; the demo room 1.5. So the list is seldom copied as it grows, and a host
 /// does not touch the reserved pages it never fills.
 const LISTS_RESERVED: usize = 2;
+
+/// The most entries the build's lists may hold: their ranges ([`Refs`], [`Children`]) and the
+/// leaves' places in the laid-out tree ([`Node`]) are `u32`s.
+const MOST_LISTED: usize = u32::MAX as usize;
 
 /// The primitives to file (non-degenerate triangles, bounded solids) with their world boxes, and
 /// each solid's box as the build files it (where its test can hit; empty if it is unbounded).
@@ -431,8 +448,8 @@ impl Builder<'_> {
 
     /// Takes the best queued leaf a step further: a leaf not yet appraised is appraised and
     /// queued again at its true priority (or stays a leaf if splitting would not pay); an
-    /// appraised one is split. Returns false when that split would pass the budget: the build
-    /// ends there.
+    /// appraised one is split. Returns false when that split would pass the budget, or the
+    /// appraisal the lists' limit ([`MOST_LISTED`]): the build ends there.
     fn step(&mut self, node: usize, slot: usize) -> bool {
         let Some(refs) = self.leaves[node] else {
             return true;
@@ -442,6 +459,11 @@ impl Builder<'_> {
             return self.split_if_it_fits(node, slot);
         }
         let (cell, depth, n) = (queued.cell, queued.depth, refs.len());
+        if n.saturating_mul(8).saturating_add(self.lists.len()) > self.most_listed {
+            // The children's lists could pass what a `u32` indexes: the build ends here, as at
+            // its budget (a scene of some hundred million primitives).
+            return false;
+        }
         let children = self.split(refs, &cell);
         let total = children.total();
         let gain = split_gain(n, total);
@@ -612,7 +634,8 @@ impl Tally {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::octree::xorshift;
+    use crate::accel::octree::{brute_force_closest_hit, xorshift};
+    use crate::math::ray::Ray;
 
     #[test]
     fn a_tally_counts_each_childs_bit_as_a_loop_over_the_bits_does() {
@@ -634,6 +657,44 @@ mod tests {
                 }
             }
             assert_eq!(tally.counts(), expected, "{len} masks");
+        }
+    }
+
+    /// A build whose lists would pass their limit ends there, as at its budget: a smaller tree
+    /// that finds every ray's closest hit as testing every triangle does.
+    #[test]
+    fn a_build_ends_where_its_lists_would_pass_their_limit() {
+        let mut next = xorshift(0x0bad_cafe);
+        let mut coordinate = move || (next() % 10_000) as f32 / 1000.0;
+        let triangles: Vec<[Vec3; 3]> = (0..4000)
+            .map(|_| {
+                let base = Vec3::new(coordinate(), coordinate(), coordinate());
+                let d = Vec3::new(coordinate(), coordinate(), coordinate()) * 0.05;
+                [
+                    base,
+                    base + Vec3::new(d.x, d.y, 0.0),
+                    base + Vec3::new(0.0, d.y, d.z),
+                ]
+            })
+            .collect();
+        let params = OctreeParams::default();
+        let full = Octree::build(&triangles, &params);
+        let limited = Octree::build_listing_at_most(&triangles, &[], &params, 20_000);
+        assert!(
+            limited.nodes().len() * 4 < full.nodes().len(),
+            "{} nodes within the limit, {} without",
+            limited.nodes().len(),
+            full.nodes().len()
+        );
+        let mut next = xorshift(0x5eed_0001);
+        let mut coordinate = move || (next() % 10_000) as f32 / 1000.0;
+        for _ in 0..2000 {
+            let origin = Vec3::new(coordinate(), coordinate(), coordinate());
+            let toward = Vec3::new(coordinate(), coordinate(), coordinate());
+            let ray = Ray::new(origin, toward - origin);
+            let expected = brute_force_closest_hit(&triangles, &ray, f32::INFINITY);
+            let got = limited.closest_hit(&triangles, &ray, f32::INFINITY);
+            assert_eq!(got, expected, "{ray:?}");
         }
     }
 
