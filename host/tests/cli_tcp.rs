@@ -6,12 +6,13 @@
 //! renders (`--workers 1`); the per-worker table at the end of `strahl render`'s output tells
 //! which workers were lost.
 //!
-//! Renders that must still be running when a worker is killed use the demo room at 1280×960 with
-//! reflections, about 2.7 s of CPU time. A worker is killed once it has used
-//! [`RENDERING_TICKS`] of CPU time (it has the scene and is rendering lines); the rest of the
-//! image is then still more than two CPU-seconds of work, over a second on two cores, so the
-//! kill cannot come after the end. The tests check that the render is still running when the
-//! kill is done. Cuts and hangs are triggered by the proxy after a fixed number of bytes from
+//! Renders that must still be running when a worker is killed use the demo room at 2048×1536
+//! ([`HUGE`]) with reflections, about 1.2 s of CPU time in the test build (2026-12-01). A worker
+//! is killed once it has used [`RENDERING_TICKS`] of CPU time (it has the scene and is rendering
+//! lines); the rest of the image is then most of the work, so the kill cannot come after the
+//! end. At 1280×960 (0.6 s) it once did: of two workers, one slow to start reached its ticks
+//! only when the other had rendered nearly every line. The tests check that the render is still
+//! running when the kill is done. Cuts and hangs are triggered by the proxy after a fixed number of bytes from
 //! the worker, a few line results into its work, which the rest of the image outlasts the same
 //! way.
 
@@ -357,7 +358,7 @@ fn worker_killed_mid_render_is_reported_and_the_image_is_complete() -> TestResul
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let mut master = Proc::spawn(&render_args(
-        LARGE,
+        HUGE,
         &out,
         &[
             "--workers",
@@ -373,7 +374,7 @@ fn worker_killed_mid_render_is_reported_and_the_image_is_complete() -> TestResul
     kill_mid_render(&mut master, &mut [&mut victim])?;
     let r = finish(master)?;
     r.assert_success();
-    assert_reference_image(&out, LARGE)?;
+    assert_reference_image(&out, HUGE)?;
     assert_lost(&r, "victim")?;
     assert_ok(&r, "survivor-a")?;
     assert_ok(&r, "survivor-b")?;
@@ -424,7 +425,7 @@ fn worker_killed_with_lines_in_flight_on_several_threads_loses_nothing() -> Test
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let mut master = Proc::spawn(&render_args(
-        LARGE,
+        HUGE,
         &out,
         &[
             "--workers",
@@ -440,7 +441,7 @@ fn worker_killed_with_lines_in_flight_on_several_threads_loses_nothing() -> Test
     kill_mid_render(&mut master, &mut [&mut victim])?;
     let r = finish(master)?;
     r.assert_success();
-    assert_reference_image(&out, LARGE)?;
+    assert_reference_image(&out, HUGE)?;
     assert_lost(&r, "victim-4t")?;
     assert_ok(&r, "survivor-1t")?;
     let rows = table(&r.stderr);
@@ -448,7 +449,7 @@ fn worker_killed_with_lines_in_flight_on_several_threads_loses_nothing() -> Test
     // Window 2 × 4 threads × 4 lines: far more than one line was in flight.
     assert!(lost.reissued > 4, "{}", r.stderr);
     let lines: u32 = rows.iter().map(|w| w.lines).sum();
-    assert_eq!(lines, LARGE.height, "each line is used once:\n{}", r.stderr);
+    assert_eq!(lines, HUGE.height, "each line is used once:\n{}", r.stderr);
     Ok(())
 }
 
@@ -460,7 +461,7 @@ fn last_worker_standing_finishes_the_image() -> TestResult {
     let dir = tempfile::tempdir()?;
     let out = dir.path().join("out.bmp");
     let mut master = Proc::spawn(&render_args(
-        LARGE,
+        HUGE,
         &out,
         &[
             "--workers",
@@ -476,7 +477,7 @@ fn last_worker_standing_finishes_the_image() -> TestResult {
     kill_mid_render(&mut master, &mut [&mut k1, &mut k2])?;
     let r = finish(master)?;
     r.assert_success();
-    assert_reference_image(&out, LARGE)?;
+    assert_reference_image(&out, HUGE)?;
     assert_lost(&r, "doomed-a")?;
     assert_lost(&r, "doomed-b")?;
     assert_ok(&r, "last")?;
@@ -1180,7 +1181,7 @@ fn all_workers_lost_mid_render_is_an_error_and_writes_nothing() -> TestResult {
     let out = dir.path().join("out.bmp");
     std::fs::write(&out, b"old")?;
     let mut master = Proc::spawn(&render_args(
-        LARGE,
+        HUGE,
         &out,
         &["--workers", "0", "--worker", &a, "--worker", &b],
     ))?;
@@ -1192,7 +1193,7 @@ fn all_workers_lost_mid_render_is_an_error_and_writes_nothing() -> TestResult {
         .lines()
         .find(|l| l.starts_with("error: "))
         .ok_or_else(|| format!("no error line:\n{}", r.stderr))?;
-    let of = format!(" of {} lines were finished", LARGE.height);
+    let of = format!(" of {} lines were finished", HUGE.height);
     let at = error.find(&of).ok_or_else(|| error.to_string())?;
     let finished: u32 = error[..at]
         .rsplit(' ')
@@ -1200,7 +1201,7 @@ fn all_workers_lost_mid_render_is_an_error_and_writes_nothing() -> TestResult {
         .ok_or("no count")?
         .parse()
         .map_err(|e| format!("{e}: {error}"))?;
-    assert!((1..LARGE.height).contains(&finished), "{error}");
+    assert!((1..HUGE.height).contains(&finished), "{error}");
     assert!(
         error.contains("lost-1") && error.contains("lost-2"),
         "{error}"
