@@ -12,9 +12,9 @@
 //! lines); the rest of the image is then most of the work, so the kill cannot come after the
 //! end. At 1280×960 (0.6 s) it once did: of two workers, one slow to start reached its ticks
 //! only when the other had rendered nearly every line. The tests check that the render is still
-//! running when the kill is done. Cuts and hangs are triggered by the proxy after a fixed number of bytes from
-//! the worker, a few line results into its work, which the rest of the image outlasts the same
-//! way.
+//! running when the kill is done. Cuts and hangs are triggered by the proxy after a fixed number
+//! of bytes from the worker, a few line results into its work, which the rest of the image
+//! outlasts the same way.
 
 use embedded_io_adapters::std::FromStd;
 use std::error::Error;
