@@ -391,21 +391,28 @@ fn push_children4<const S: usize>(
         one_ray_pieces(packet, e, node, mid, ties, (&mut starts, &mut ends));
     }
     // Farthest first: a ray passes through children in order of the planes crossed. The
-    // nearest is not pushed but returned.
+    // nearest is not pushed but returned. Which children are taken is found for all eight
+    // first, without a branch per child (whether a child is taken is a coin toss), and only
+    // those are visited, in that order (bit `k` for `ORDER[k]`; `lanes_of` walks any mask).
+    const ORDER: [usize; 8] = [7, 6, 5, 3, 4, 2, 1, 0];
+    let mut taken = 0u32;
+    for (k, r) in ORDER.into_iter().enumerate() {
+        let take = node.child_occupied(r ^ packet.flip) & starts[r].cmple(ends[r]).any();
+        taken |= u32::from(take) << k;
+    }
     let mut nearest = None;
-    for r in [7, 6, 5, 3, 4, 2, 1, 0] {
+    for k in lanes_of(taken) {
+        let r = ORDER[k];
         let c = r ^ packet.flip;
-        if node.child_occupied(c) && starts[r].cmple(ends[r]).any() {
-            if let Some(farther) = nearest.replace(Entry4 {
-                t0: starts[r],
-                t1: ends[r],
-                node: node.first + c as u32,
-                depth: e.depth + 1,
-                child: c as u16,
-            }) {
-                stack[top] = farther;
-                top += 1;
-            }
+        if let Some(farther) = nearest.replace(Entry4 {
+            t0: starts[r],
+            t1: ends[r],
+            node: node.first + c as u32,
+            depth: e.depth + 1,
+            child: c as u16,
+        }) {
+            stack[top] = farther;
+            top += 1;
         }
     }
     (top, nearest)

@@ -565,22 +565,19 @@ pub(super) fn push_children<const S: usize>(
     // Plane crossings inside the interval, in ray order. The interval's ends are widened by
     // twice a crossing's error bound, so a crossing truly inside is computed inside: whether
     // the ray starts on the upper side is never decided by a rounded crossing.
-    // Crossings and their axes in two arrays of 4-byte values: the sort's reads then match the
-    // writes before them one for one. (Pairs of a float and an index were written in two
+    // Crossings and their axes in two arrays of 4-byte values: each of the sort's reads then
+    // lies within one write before it. (Pairs of a float and an index were written in two
     // parts and read whole, and such a read waits until the writes reach the cache.)
-    let mut ts = [f32::INFINITY; 3];
-    let mut axes = [0u32; 3];
-    let mut n = 0;
-    // Each crossing is written at `n` (`∞` where it is outside, so the slots from `n` on stay
-    // `∞`) and `n` moves on past those inside, instead of a branch around the writes: whether
-    // a crossing is inside is a coin toss, and that branch was the walk's most mispredicted
-    // one (`valgrind --branch-sim` on balls_4 and rings_5).
-    for (a, &c) in cross.iter().enumerate() {
-        let inside = (c > e.t0) & (c < e.t1);
-        ts[n] = if inside { c } else { f32::INFINITY };
-        axes[n] = a as u32;
-        n += usize::from(inside);
-    }
+    // The crossings outside are made `∞` by a vector select: written as a scalar choice it
+    // compiled to a branch around the `∞`, and whether a crossing is inside is a coin toss
+    // (that branch was the walk's most mispredicted one, `valgrind --branch-sim` on balls_4).
+    // The stable sort then puts the `n` inside first, in ray order, ties in axis order, as
+    // writing only those, in axis order, and sorting them did.
+    let c = Vec3A::from_array(cross);
+    let inside = c.cmpgt(Vec3A::splat(e.t0)) & c.cmplt(Vec3A::splat(e.t1));
+    let mut ts = Vec3A::select(inside, c, Vec3A::INFINITY).to_array();
+    let mut axes = [0u32, 1, 2];
+    let n = inside.bitmask().count_ones() as usize;
     sort3(&mut ts, &mut axes);
     let events: [(f32, usize); 3] = core::array::from_fn(|k| (ts[k], axes[k] as usize));
     if in_plane != 0 {
