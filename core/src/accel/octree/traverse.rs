@@ -565,19 +565,26 @@ pub(super) fn push_children<const S: usize>(
     // Plane crossings inside the interval, in ray order. The interval's ends are widened by
     // twice a crossing's error bound, so a crossing truly inside is computed inside: whether
     // the ray starts on the upper side is never decided by a rounded crossing.
-    // Crossings and their axes in two arrays of 4-byte values: each of the sort's reads then
-    // lies within one write before it. (Pairs of a float and an index were written in two
+    // Crossings and their axes in two arrays of 4-byte values: the sort's reads then match the
+    // writes before them one for one. (Pairs of a float and an index were written in two
     // parts and read whole, and such a read waits until the writes reach the cache.)
-    // The crossings outside are made `∞` by a vector select: written as a scalar choice it
-    // compiled to a branch around the `∞`, and whether a crossing is inside is a coin toss
-    // (that branch was the walk's most mispredicted one, `valgrind --branch-sim` on balls_4).
-    // The stable sort then puts the `n` inside first, in ray order, ties in axis order, as
-    // writing only those, in axis order, and sorting them did.
+    let mut ts = [f32::INFINITY; 3];
+    let mut axes = [0u32; 3];
+    let mut n = 0;
+    // Each crossing is written at `n` (`∞` where it is outside, so the slots from `n` on stay
+    // `∞`) and `n` moves on past those inside, instead of a branch around the writes: whether
+    // a crossing is inside is a coin toss. The `∞` is chosen by a vector select: written as a
+    // scalar choice it compiled to a branch around the `∞`, the walk's most mispredicted one
+    // (`valgrind --branch-sim` on balls_4).
     let c = Vec3A::from_array(cross);
     let inside = c.cmpgt(Vec3A::splat(e.t0)) & c.cmplt(Vec3A::splat(e.t1));
-    let mut ts = Vec3A::select(inside, c, Vec3A::INFINITY).to_array();
-    let mut axes = [0u32, 1, 2];
-    let n = inside.bitmask().count_ones() as usize;
+    let outside_infinite = Vec3A::select(inside, c, Vec3A::INFINITY).to_array();
+    let bits = inside.bitmask();
+    for (a, &t) in outside_infinite.iter().enumerate() {
+        ts[n] = t;
+        axes[n] = a as u32;
+        n += (bits >> a & 1) as usize;
+    }
     sort3(&mut ts, &mut axes);
     let events: [(f32, usize); 3] = core::array::from_fn(|k| (ts[k], axes[k] as usize));
     if in_plane != 0 {
@@ -764,6 +771,31 @@ fn sort3(ts: &mut [f32; 3], axes: &mut [u32; 3]) {
         if ts[j] < ts[i] {
             ts.swap(i, j);
             axes.swap(i, j);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::sort3;
+
+    /// `sort3` is a stable sort: every arrangement of crossings (distinct, tied, and `∞` for
+    /// unused slots) comes out in increasing order, tied values and the `∞`s keeping their
+    /// axes' order, as a stable library sort leaves them.
+    #[test]
+    fn sort3_sorts_stably() {
+        let values = [0.5f32, 1.0, 1.0, 2.5, f32::INFINITY];
+        for a in values {
+            for b in values {
+                for c in values {
+                    let (mut ts, mut axes) = ([a, b, c], [0u32, 1, 2]);
+                    sort3(&mut ts, &mut axes);
+                    let mut want = [(a, 0u32), (b, 1), (c, 2)];
+                    want.sort_by(|x, y| x.0.total_cmp(&y.0));
+                    assert_eq!(ts, want.map(|w| w.0), "{a} {b} {c}");
+                    assert_eq!(axes, want.map(|w| w.1), "{a} {b} {c}");
+                }
+            }
         }
     }
 }
