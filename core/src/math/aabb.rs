@@ -2,7 +2,7 @@
 
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
-use glam::{Vec3, Vec3A, Vec4};
+use glam::{BVec4A, Vec3, Vec3A, Vec4};
 
 /// An axis-aligned box; `min <= max` on every axis once anything was added (zero volume is fine).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -128,14 +128,20 @@ impl Aabb {
         (t0 <= t1).then_some((t0, t1))
     }
 
-    /// The rays of four, their origins and reciprocal directions per axis lane by lane, that
-    /// [`Aabb::intersect`] surely finds missing the box within `[0, t_max]` (bit `l` for ray
-    /// `l`, whose bound is lane `l` of `t_max`). Each lane computes `intersect_lanes`'s slab
-    /// values by its operations; where the reciprocal direction is finite and none of those
-    /// values is NaN, minima and maxima are exact whatever their order, so the lane's interval
-    /// is `intersect`'s to the bit. Other lanes are never reported.
+    /// [`Aabb::intersect`] for four rays, their origins and reciprocal directions per axis lane
+    /// by lane (ray `l`'s bound is lane `l` of `t_max`): each lane's `[t0, t1]`, empty
+    /// (`t0 > t1`) for a miss, and which lanes are exact. Each lane computes
+    /// `intersect_lanes`'s slab values by its operations; where the reciprocal direction is
+    /// finite and none of those values is NaN, minima and maxima are exact whatever their
+    /// order, so an exact lane's interval is `intersect`'s (equal values; a zero's sign may
+    /// differ, which only comparisons read). Other lanes must be asked one ray at a time.
     #[inline(always)]
-    pub fn missed_by4(&self, origin: &[Vec4; 3], inv_dir: &[Vec4; 3], t_max: Vec4) -> u32 {
+    pub fn enter4(
+        &self,
+        origin: &[Vec4; 3],
+        inv_dir: &[Vec4; 3],
+        t_max: Vec4,
+    ) -> (Vec4, Vec4, BVec4A) {
         let (mut t0, mut t1) = (Vec4::ZERO, t_max);
         let mut exact = t_max.cmpeq(t_max);
         for k in 0..3 {
@@ -145,6 +151,15 @@ impl Aabb {
             t0 = t0.max(a.min(b));
             t1 = t1.min(a.max(b) * (1.0 + 2.0 * gamma(3)));
         }
+        (t0, t1, exact)
+    }
+
+    /// The rays of four that [`Aabb::intersect`] surely finds missing the box within
+    /// `[0, t_max]` (bit `l` for ray `l`): the exact lanes of [`Aabb::enter4`] whose interval is
+    /// empty. Other lanes are never reported.
+    #[inline(always)]
+    pub fn missed_by4(&self, origin: &[Vec4; 3], inv_dir: &[Vec4; 3], t_max: Vec4) -> u32 {
+        let (t0, t1, exact) = self.enter4(origin, inv_dir, t_max);
         (t0.cmpgt(t1) & exact).bitmask()
     }
 }
@@ -233,15 +248,16 @@ mod tests {
         assert!(b.intersect(&r, inv(r.dir), f32::INFINITY).is_some());
     }
 
-    /// Four rays at a time: every lane reported missed is one `intersect` misses, and every
-    /// miss of a ray with a finite reciprocal direction is reported. Corners, edges, bounds that
-    /// cut the box, directions along an axis, and infinite and NaN components included.
+    /// Four rays at a time: every lane reported missed is one `intersect` misses, every miss of
+    /// a ray with a finite reciprocal direction is reported, and an exact lane's interval is
+    /// `intersect`'s. Corners, edges, bounds that cut the box, directions along an axis, and
+    /// infinite and NaN components included.
     #[test]
     fn four_lanes_report_the_misses_of_intersect() {
         let mut rng = crate::scene::mesh::Rng::new(0x9e37_79b9);
         let mut unit = move || rng.next_f32();
         let special = [0.0, -0.0, f32::INFINITY, f32::NAN, 1e30, 1e-30];
-        let (mut reported, mut clear) = (0, 0);
+        let (mut reported, mut clear, mut entered) = (0, 0, 0);
         for case in 0..40_000usize {
             let mut v = || Vec3::new(unit(), unit(), unit()) * 8.0 - 4.0;
             let (a, b) = (v(), v());
@@ -278,9 +294,17 @@ mod tests {
                 [0, 1, 2].map(|k| Vec4::from(core::array::from_fn::<f32, 4, _>(|l| f(l)[k])))
             };
             let t_max = Vec4::from(rays.map(|(_, t)| t));
-            let missed = bx.missed_by4(&lanes(&|l| rays[l].0.origin), &lanes(&|l| inv[l]), t_max);
+            let (origin, inv_dir) = (lanes(&|l| rays[l].0.origin), lanes(&|l| inv[l]));
+            let missed = bx.missed_by4(&origin, &inv_dir, t_max);
+            let (t0, t1, exact) = bx.enter4(&origin, &inv_dir, t_max);
             for (l, (ray, t)) in rays.iter().enumerate() {
                 let one = bx.intersect(ray, inv[l], *t);
+                if exact.bitmask() >> l & 1 == 1 {
+                    // An exact lane's interval is `intersect`'s.
+                    let four = (t0[l] <= t1[l]).then_some((t0[l], t1[l]));
+                    assert_eq!(four, one, "case {case} lane {l}: {ray:?} {t}");
+                    entered += usize::from(one.is_some());
+                }
                 if missed >> l & 1 == 1 {
                     assert_eq!(one, None, "case {case} lane {l}: {ray:?} {t}");
                     reported += 1;
@@ -293,6 +317,10 @@ mod tests {
         assert!(
             reported > 20_000,
             "only {reported} of {clear} misses reported"
+        );
+        assert!(
+            entered > 20_000,
+            "only {entered} exact lanes entered the box"
         );
     }
 }

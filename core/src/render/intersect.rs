@@ -17,7 +17,7 @@
 
 use crate::accel::light_buffer::Candidates;
 use crate::accel::octree::{
-    lanes_of, per_lane, walk_together, GroupBlocks, GroupTests, PacketStack, LANES,
+    lanes_of, per_lane, GroupBlocks, GroupTests, Packet, PacketStack, LANES,
 };
 use crate::accel::work::QueryWork;
 use crate::geom::axis_planes::AxisPlanes;
@@ -30,7 +30,7 @@ use crate::math::float::gamma;
 use crate::math::ray::Ray;
 use crate::scene::Scene;
 use core::cell::OnceCell;
-use glam::{Vec3, Vec4};
+use glam::Vec4;
 
 /// How many blockers each light remembers for [`Scene::shadowed`] (two: 0.94× on gears_4
 /// against one; four gave no more).
@@ -452,7 +452,7 @@ impl Scene {
     /// returns for it. Neighbouring camera rays walk the octree together
     /// ([`Octree::closest_hits4`](crate::accel::octree::Octree::closest_hits4)); where lone
     /// spheres are tested in groups, or the four rays do not go the same way along every axis
-    /// ([`walk_together`]), the rays go one at a time, and where all four miss the tree
+    /// (no [`Packet`]), the rays go one at a time, and where all four miss the tree
     /// ([`Octree::missed_by4`](crate::accel::octree::Octree::missed_by4)) none walks.
     /// `leaving[l]` is the triangle ray `l` leaves, if it leaves one (its origin moved off that
     /// triangle's plane by [`LeavingOrigins`](crate::math::ray::LeavingOrigins), towards its
@@ -465,78 +465,68 @@ impl Scene {
         leaving: [Option<u32>; LANES],
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
-        if self.group_spheres || !walk_together(rays) {
+        let packet = match Packet::new(rays) {
+            Some(packet) if !self.group_spheres => packet,
             // Rays that part (mirror rays off spheres, mostly) go one at a time, without the
             // four rays' set-up for the tests; where spheres are tested in groups, all do.
-            return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
-        }
+            _ => return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch)),
+        };
         let (spans, work, stack) = (
             &mut scratch.spans,
             &mut scratch.work,
             &mut scratch.packet_stack,
         );
-        if self.octree.missed_by4(rays, t_max) {
+        if self.octree.missed_by4(&packet, t_max) {
             // No set-up for tests no ray will make.
             return per_lane(|l| self.closest_unbounded(&rays[l], t_max, None, spans, work));
         }
         let triangles = per_lane(|l| RayFrame::new(&rays[l]));
         let frame4 = RayFrame4::new(&triangles);
         let n = self.triangle_points.len() as u32;
-        let axis_lanes = |v: &dyn Fn(&Ray) -> Vec3| {
-            let [a, b, c, d] = rays.each_ref().map(v);
-            [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
-        };
-        // For the spheres' and the reject boxes' four-ray tests; scenes of triangles alone skip
-        // making them.
-        let lanes = (!self.solids.is_empty()).then(|| {
-            let [a, b, c, d] = per_lane(|l| QueryFrame::new(&rays[l]).inv_dir);
-            (
-                axis_lanes(&|r| r.origin),
-                axis_lanes(&|r| r.dir),
-                [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k])),
-            )
-        });
-        let hits =
-            self.octree
-                .closest_hits4(rays, t_max, leaving, (work, stack), |asked, i, closest| {
-                    let Some(triangle) = self.triangle_points.get(i as usize) else {
-                        let (mut asked, j) = (asked, i - n);
-                        if let Some((origins, dirs, inv_dirs)) = &lanes {
-                            // The four rays' sure misses at once: most tests end there.
-                            if let Some(sphere) = self.solids.lone_sphere(j) {
-                                asked &= !sphere.surely_missed_by4(origins, dirs);
-                            } else if let Some(b) = self.solids.reject_box(j) {
-                                let bounds = Vec4::from(per_lane(|l| closest[l].bound()));
-                                asked &= !b.missed_by4(origins, inv_dirs, bounds);
-                                if asked != 0 {
-                                    asked &= !self.solids.cylinder_missed_by4(j, origins, dirs);
-                                }
-                            }
-                        }
-                        // `first_hit` gives `first_hit_in_box`'s answer without its box: a lane
-                        // left here passed the box above, or the box could not be asked four at
-                        // a time (a zero direction component, a NaN), or the object has none.
-                        for l in lanes_of(asked) {
-                            let hit = self
-                                .solids
-                                .first_hit(j, &rays[l], closest[l].bound(), spans);
-                            if let Some(h) = hit {
-                                closest[l].offer(i, PrimitiveHit::Solid(j, h));
-                            }
-                        }
-                        return;
-                    };
-                    // Four rays' edge functions at once, where they share an axis permutation: most
-                    // tests end there.
-                    let may_hit = frame4
-                        .as_ref()
-                        .map_or(asked, |f| may_hit4(f, triangle, asked));
-                    for l in lanes_of(may_hit) {
-                        if let Some(h) = intersect(&triangles[l], triangle, closest[l].bound()) {
-                            closest[l].offer(i, PrimitiveHit::Triangle(i, h));
+        let hits = self.octree.closest_hits4(
+            &packet,
+            t_max,
+            leaving,
+            (work, stack),
+            |asked, i, closest| {
+                let Some(triangle) = self.triangle_points.get(i as usize) else {
+                    let (mut asked, j) = (asked, i - n);
+                    let (origins, dirs) = (&packet.origin, &packet.dir);
+                    // The four rays' sure misses at once: most tests end there.
+                    if let Some(sphere) = self.solids.lone_sphere(j) {
+                        asked &= !sphere.surely_missed_by4(origins, dirs);
+                    } else if let Some(b) = self.solids.reject_box(j) {
+                        let bounds = Vec4::from(per_lane(|l| closest[l].bound()));
+                        asked &= !b.missed_by4(origins, &packet.inv_dir, bounds);
+                        if asked != 0 {
+                            asked &= !self.solids.cylinder_missed_by4(j, origins, dirs);
                         }
                     }
-                });
+                    // `first_hit` gives `first_hit_in_box`'s answer without its box: a lane
+                    // left here passed the box above, or the box could not be asked four at
+                    // a time (a zero direction component, a NaN), or the object has none.
+                    for l in lanes_of(asked) {
+                        let hit = self
+                            .solids
+                            .first_hit(j, &rays[l], closest[l].bound(), spans);
+                        if let Some(h) = hit {
+                            closest[l].offer(i, PrimitiveHit::Solid(j, h));
+                        }
+                    }
+                    return;
+                };
+                // Four rays' edge functions at once, where they share an axis permutation: most
+                // tests end there.
+                let may_hit = frame4
+                    .as_ref()
+                    .map_or(asked, |f| may_hit4(f, triangle, asked));
+                for l in lanes_of(may_hit) {
+                    if let Some(h) = intersect(&triangles[l], triangle, closest[l].bound()) {
+                        closest[l].offer(i, PrimitiveHit::Triangle(i, h));
+                    }
+                }
+            },
+        );
         per_lane(|l| {
             let best = hits[l];
             self.closest_unbounded(&rays[l], t_max, best, spans, work)

@@ -6,7 +6,7 @@
 use glam::Vec3;
 use std::cell::RefCell;
 use strahl_core::accel::octree::{
-    brute_force_closest_hit, lanes_of, Octree, OctreeParams, PacketStack, LANES,
+    brute_force_closest_hit, lanes_of, Octree, OctreeParams, Packet, PacketStack, LANES,
 };
 use strahl_core::accel::work::QueryWork;
 use strahl_core::geom::triangle::{intersect, RayFrame};
@@ -24,49 +24,58 @@ thread_local! {
     static STACK: RefCell<PacketStack> = RefCell::default();
 }
 
-/// Compares the four rays' hits walked together with each walked alone and with brute force.
-/// Returns how many of them hit.
-fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> usize {
+/// Compares the four rays' hits walked together, where they make a [`Packet`], with each
+/// walked alone and with brute force. Returns how many of them hit, and whether they walked
+/// together.
+fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> (usize, bool) {
     let frames = rays.each_ref().map(RayFrame::new);
     let mut work = QueryWork::default();
-    let four = STACK.with_borrow_mut(|stack| {
-        tree.closest_hits4(
-            rays,
-            f32::INFINITY,
-            [None; LANES],
-            (&mut work, stack),
-            |lanes, i, closest| {
-                for l in lanes_of(lanes) {
-                    if let Some(h) = intersect(&frames[l], &tris[i as usize], closest[l].bound()) {
-                        closest[l].offer(i, h);
+    let packet = Packet::new(rays);
+    let four = packet.as_ref().map(|packet| {
+        STACK.with_borrow_mut(|stack| {
+            tree.closest_hits4(
+                packet,
+                f32::INFINITY,
+                [None; LANES],
+                (&mut work, stack),
+                |lanes, i, closest| {
+                    for l in lanes_of(lanes) {
+                        let tri = &tris[i as usize];
+                        if let Some(h) = intersect(&frames[l], tri, closest[l].bound()) {
+                            closest[l].offer(i, h);
+                        }
                     }
-                }
-            },
-        )
+                },
+            )
+        })
     });
-    if tree.missed_by4(rays, f32::INFINITY) {
-        // Said to meet nothing: the walk found nothing and entered no cell.
-        assert_eq!(four.map(|h| h.is_some()), [false; LANES], "{rays:?}");
-        assert_eq!(work.octree_cells, 0, "{rays:?}");
+    if let (Some(packet), Some(four)) = (&packet, four) {
+        if tree.missed_by4(packet, f32::INFINITY) {
+            // Said to meet nothing: the walk found nothing and entered no cell.
+            assert_eq!(four.map(|h| h.is_some()), [false; LANES], "{rays:?}");
+            assert_eq!(work.octree_cells, 0, "{rays:?}");
+        }
     }
     let mut hits = 0;
     for (l, ray) in rays.iter().enumerate() {
         let alone = tree.closest_hit(tris, ray, f32::INFINITY);
-        let got = key(four[l].map(|(i, h)| (i, h.t)));
-        assert_eq!(
-            got,
-            key(alone.map(|h| (h.triangle, h.tri.t))),
-            "lane {l}: {ray:?}"
-        );
+        let alone = key(alone.map(|h| (h.triangle, h.tri.t)));
+        if let Some(four) = four {
+            assert_eq!(
+                key(four[l].map(|(i, h)| (i, h.t))),
+                alone,
+                "lane {l}: {rays:?}"
+            );
+        }
         let brute = brute_force_closest_hit(tris, ray, f32::INFINITY);
         assert_eq!(
-            got,
+            alone,
             key(brute.map(|h| (h.triangle, h.tri.t))),
             "lane {l}: {ray:?}"
         );
-        hits += usize::from(got.is_some());
+        hits += usize::from(alone.is_some());
     }
-    hits
+    (hits, packet.is_some())
 }
 
 /// Packets as a camera sends them: from one eye around the triangles' bounds, four directions
@@ -76,7 +85,7 @@ fn camera_packets(tris: &[[Vec3; 3]], n: usize, seed: u64) -> usize {
     let (lo, hi) = bounds(tris);
     let ext = hi - lo;
     let mut rng = Rng::new(seed);
-    let mut hits = 0;
+    let (mut hits, mut together) = (0, 0);
     for i in 0..n {
         let eye =
             lo - ext * 0.5 + ext * 2.0 * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
@@ -89,8 +98,15 @@ fn camera_packets(tris: &[[Vec3; 3]], n: usize, seed: u64) -> usize {
         let step = ext.length() * 1e-3 * rng.next_f32();
         let right = (target - eye).cross(Vec3::Z).normalize_or(Vec3::X) * step;
         let rays = std::array::from_fn(|l| Ray::new(eye, target + right * l as f32 - eye));
-        hits += check(&tree, tris, &rays);
+        let (found, walked) = check(&tree, tris, &rays);
+        hits += found;
+        together += usize::from(walked);
     }
+    // Neighbouring camera rays go the same way along every axis, but where one crosses zero.
+    assert!(
+        together > n * 9 / 10,
+        "only {together} of {n} packets walked together"
+    );
     hits
 }
 
@@ -136,10 +152,12 @@ fn packets_beside_the_tree() {
             let wiggle = ext * 1e-3 * l as f32;
             Ray::new(eye, target + wiggle - eye)
         });
-        let found = check(&tree, &tris, &rays);
+        let (found, walked) = check(&tree, &tris, &rays);
         hits += found;
         blank += usize::from(i % 2 == 0 && found == 0);
-        passed_by += usize::from(tree.missed_by4(&rays, f32::INFINITY));
+        let packet = Packet::new(&rays);
+        assert_eq!(packet.is_some(), walked);
+        passed_by += usize::from(packet.is_some_and(|p| tree.missed_by4(&p, f32::INFINITY)));
     }
     assert!(blank > 1_000, "only {blank} packets met nothing");
     // Rays beside the bounds mostly miss the root cell too: those need no walk at all.
@@ -173,30 +191,48 @@ fn grid_packets_through_cell_edges_and_corners() {
             }
             Ray::new(grid_point(&mut rng), dir * cell * signs)
         });
-        hits += check(&tree, &tris, &rays);
+        let (found, walked) = check(&tree, &tris, &rays);
+        assert!(walked, "rays of one sign walk together: {rays:?}");
+        hits += found;
     }
     assert!(hits > 2_000, "too few hits ({hits}) to mean anything");
 }
 
-/// Packets whose rays go different ways, or have a zero component, are walked one ray at a time
-/// and give the same answers.
+/// Packets whose rays go different ways, or have a zero component, make no [`Packet`] (the
+/// scene walks them one ray at a time); those whose rays share every sign do and walk together.
 #[test]
 fn mixed_packets() {
     let tris = random_soup(300, &mut Rng::new(5));
     let tree = Octree::build(&tris, &OctreeParams::default());
     let (lo, hi) = bounds(&tris);
     let mut rng = Rng::new(24);
-    let mut hits = 0;
+    let (mut hits, mut together, mut apart) = (0, 0, 0);
     for i in 0..5_000 {
-        let rays = std::array::from_fn(|l| {
-            let origin = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
-            let mut dir = rng.direction();
-            if (i + l) % 5 == 0 {
+        let origin = lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let first = rng.direction();
+        let rays: [Ray; LANES] = std::array::from_fn(|l| {
+            // Half the packets near one direction (signs mostly shared), half at random.
+            let mut dir = if i % 2 == 0 {
+                first + rng.direction() * 0.05
+            } else {
+                rng.direction()
+            };
+            if (i + l) % 7 == 0 {
                 dir[l % 3] = 0.0;
             }
             Ray::new(origin, dir)
         });
-        hits += check(&tree, &tris, &rays);
+        let shared = (0..3)
+            .all(|a| rays.iter().all(|r| r.dir[a] > 0.0) || rays.iter().all(|r| r.dir[a] < 0.0));
+        let (found, walked) = check(&tree, &tris, &rays);
+        assert_eq!(walked, shared, "{rays:?}");
+        hits += found;
+        together += usize::from(walked);
+        apart += usize::from(!walked);
     }
+    assert!(
+        together > 500 && apart > 2_000,
+        "{together} together, {apart} apart"
+    );
     assert!(hits > 2_000, "too few hits ({hits}) to mean anything");
 }

@@ -23,7 +23,9 @@
 //!   `any_hit_grouped` hand a large leaf to their tests whole (where they keep its primitives
 //!   ready, [`GroupTests::test_leaf`]) or [`GROUP`] primitives at a time.
 //! - [`closest_hits4`](Octree::closest_hits4) (in `packet.rs`) walks four neighbouring camera
-//!   rays together, one per vector lane, to the one-ray walk's answers.
+//!   rays together, one per vector lane, to the one-ray walk's answers: a [`Packet`], which
+//!   lays the rays out in lanes once for every four-ray test of a query, where they go the
+//!   same way along every axis.
 //! - [`filed_in`](Octree::filed_in) (in `region.rs`) lists the primitives filed near a box, for
 //!   structures beside the tree that rely on its filing.
 //! - [`brute_force_closest_hit`] is the reference the octree is tested against.
@@ -43,7 +45,7 @@ mod overlap;
 mod packet;
 mod queue;
 mod region;
-pub use packet::{lanes_of, per_lane, walk_together, PacketStack, LANES};
+pub use packet::{lanes_of, per_lane, Packet, PacketStack, LANES};
 mod traverse;
 pub use crate::geom::hit::GROUP;
 pub use traverse::{GroupBlocks, GroupTests};

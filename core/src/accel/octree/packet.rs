@@ -21,17 +21,16 @@
 //! The four rays must go the same way along each axis (no zero component), so that one order of
 //! the children is nearest first for each of them: a ray passes through children in order of
 //! how many centre planes it has crossed, and these are popped in that order. Camera rays of
-//! neighbouring pixels almost always qualify; other packets are walked one ray at a time.
+//! neighbouring pixels almost always qualify; other rays make no [`Packet`], and the scene
+//! walks them one at a time.
 
-use super::traverse::{
-    inv_dir, next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN,
-};
+use super::traverse::{next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
 use super::{Node, Octree};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{Closest, RayHit};
 use crate::math::ray::Ray;
 use alloc::vec::Vec;
-use glam::{BVec4A, Vec3, Vec3A, Vec4};
+use glam::{BVec4A, Vec3, Vec4};
 
 /// Rays per packet.
 pub const LANES: usize = 4;
@@ -76,59 +75,63 @@ impl Default for Entry4 {
 #[derive(Clone, Debug, Default)]
 pub struct PacketStack(Vec<Entry4>);
 
-/// The four rays as the walk reads them: per axis, the origins and reciprocal directions lane
-/// by lane, and which axes they all go down (`flip`: bit `a` set where the direction is
-/// negative along axis `a`).
-struct Packet<'a> {
-    rays: &'a [Ray; LANES],
-    inv_dir: [Vec3; LANES],
-    origin: [Vec4; 3],
-    lane_inv_dir: [Vec4; 3],
+/// Four rays lane by lane, as the packet walk and the scene's four-ray tests read them: per
+/// axis, their origins, directions and reciprocal directions, one lane a ray, and which axes
+/// they all go down (`flip`: bit `a` set where the direction is negative along axis `a`). Made
+/// once per query ([`Packet::new`]) for every four-ray test of it: the root test
+/// ([`Octree::missed_by4`]), the walk ([`Octree::closest_hits4`]) and the solids' tests.
+pub struct Packet<'a> {
+    /// The rays.
+    pub rays: &'a [Ray; LANES],
+    /// Per axis, the four origins.
+    pub origin: [Vec4; 3],
+    /// Per axis, the four directions.
+    pub dir: [Vec4; 3],
+    /// Per axis, the four reciprocal directions: lane `l` of axis `a` is component `a` of
+    /// the one-ray walk's `inv_dir` of ray `l`, to the bit (the same IEEE division).
+    pub inv_dir: [Vec4; 3],
     flip: usize,
 }
 
 impl<'a> Packet<'a> {
-    /// The packet, or `None` if the rays do not all go the same way along every axis.
-    fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
-        let flip = shared_signs(rays)?;
-        // One vector division per ray, as the one-ray walk computes it.
-        let inv_dir = per_lane(|l| inv_dir(&rays[l]));
-        let lanes = |f: &dyn Fn(usize) -> f32| Vec4::new(f(0), f(1), f(2), f(3));
+    /// The packet, or `None` if the rays do not all go the same way along every axis (a zero
+    /// or NaN component included): those the octree's walks take one at a time.
+    pub fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
+        let lanes = |v: &dyn Fn(&Ray) -> Vec3| {
+            let [a, b, c, d] = rays.each_ref().map(v);
+            [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
+        };
+        let dir = lanes(&|r| r.dir);
+        let flip = shared_signs(&dir)?;
         Some(Packet {
             rays,
-            inv_dir,
-            origin: core::array::from_fn(|a| lanes(&|l| rays[l].origin[a])),
-            lane_inv_dir: core::array::from_fn(|a| lanes(&|l| inv_dir[l][a])),
+            origin: lanes(&|r| r.origin),
+            dir,
+            inv_dir: dir.map(|d| Vec4::ONE / d),
             flip,
         })
     }
+
+    /// Ray `l`'s reciprocal direction, the one-ray walk's `inv_dir`.
+    #[inline(always)]
+    fn ray_inv_dir(&self, l: usize) -> Vec3 {
+        Vec3::new(self.inv_dir[0][l], self.inv_dir[1][l], self.inv_dir[2][l])
+    }
 }
 
-/// True if the four rays go the same way along every axis (no zero component): the rays
-/// [`Octree::closest_hits4`] walks together; others it walks one at a time.
-pub fn walk_together(rays: &[Ray; LANES]) -> bool {
-    shared_signs(rays).is_some()
-}
-
-/// The rays' [`signs`] if they are the same for all four.
-fn shared_signs(rays: &[Ray; LANES]) -> Option<usize> {
-    let flip = signs(rays[0].dir)?;
-    for r in &rays[1..] {
-        if signs(r.dir)? != flip {
-            return None;
+/// The signs the four directions (per axis, lane by lane) share: bit `a` set where all go down
+/// axis `a`; `None` if they differ along an axis or a component is zero or NaN (which compare
+/// false both ways). One comparison of the four lanes each way per axis, no branch per ray.
+fn shared_signs(dir: &[Vec4; 3]) -> Option<usize> {
+    let mut flip = 0;
+    for (a, d) in dir.iter().enumerate() {
+        match (d.cmplt(Vec4::ZERO).bitmask(), d.cmpgt(Vec4::ZERO).bitmask()) {
+            (ALL_LANES, 0) => flip |= 1 << a,
+            (0, ALL_LANES) => {}
+            _ => return None,
         }
     }
     Some(flip)
-}
-
-/// Bit `a` set where `d` is negative along axis `a`; `None` if a component is zero or NaN
-/// (which compare false both ways). Masks of the three lanes at once, not a branch per axis.
-fn signs(d: Vec3) -> Option<usize> {
-    let d = Vec3A::from(d);
-    let negative = d.cmplt(Vec3A::ZERO);
-    (negative | d.cmpgt(Vec3A::ZERO))
-        .all()
-        .then(|| negative.bitmask() as usize)
 }
 
 /// Every lane's bit.
@@ -146,32 +149,23 @@ pub fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
 }
 
 impl Octree {
-    /// The closest hits of four rays with `0 < t < t_max`, each what
-    /// [`Octree::closest_hit_with`] returns for it. `test(lanes, index, closest)` tests primitive
-    /// `index` against the rays in `lanes` (bit `l` for ray `l`) and offers each ray's hit with
-    /// `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it there.
-    /// `leaving[l]` is a primitive ray `l` cannot hit, which the four rays' walk does not test
-    /// it against (the triangle it leaves: its test could only find nothing, at a cost, as `t`
-    /// rounds about 0); rays that go one at a time still test it.
-    /// The cells entered and the tests made are added to `work`; `stack` is the walk's.
+    /// The closest hits of the packet's four rays with `0 < t < t_max`, each what
+    /// [`Octree::closest_hit_with`] returns for it. `test(lanes, index, closest)` tests
+    /// primitive `index` against the rays in `lanes` (bit `l` for ray `l`) and offers each
+    /// ray's hit with `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it
+    /// there. `leaving[l]` is a primitive ray `l` cannot hit, which the walk does not test it
+    /// against (the triangle it leaves: its test could only find nothing, at a cost, as `t`
+    /// rounds about 0). The cells entered and the tests made are added to `work`; `stack` is
+    /// the walk's.
     pub fn closest_hits4<H: RayHit>(
         &self,
-        rays: &[Ray; LANES],
+        packet: &Packet,
         t_max: f32,
         leaving: [Option<u32>; LANES],
         (work, stack): (&mut QueryWork, &mut PacketStack),
         mut test: impl FnMut(u32, u32, &mut [Closest<H>; LANES]),
     ) -> [Option<(u32, H)>; LANES] {
         let mut closest: [Closest<H>; LANES] = per_lane(|_| Closest::new(t_max));
-        let Some(packet) = Packet::new(rays) else {
-            return per_lane(|l| {
-                self.closest_hit_with(&rays[l], t_max, work, |i, bound| {
-                    closest[l] = Closest::new(bound);
-                    test(1 << l, i, &mut closest);
-                    closest[l].best().map(|(_, h)| h)
-                })
-            });
-        };
         let mut tests = 0;
         for &i in &self.large {
             let mut lanes = 0;
@@ -187,7 +181,7 @@ impl Octree {
         let t_max = per_lane(|l| t_max.min(closest[l].cutoff()));
         // Each ray's mailbox starts with the primitive it leaves, as if tested already.
         let mut mailboxes: [Mailbox; LANES] = per_lane(|l| Mailbox::holding(leaving[l]));
-        work.octree_cells += self.walk4(&packet, t_max, stack, |entered, indices| {
+        work.octree_cells += self.walk4(packet, t_max, stack, |entered, indices| {
             for &i in indices {
                 let mut lanes = 0;
                 for l in lanes_of(entered) {
@@ -204,30 +198,22 @@ impl Octree {
         per_lane(|l| closest[l].best())
     }
 
-    /// True if none of `rays` enters the tree's root cell within `t_max` and no primitive is set
-    /// apart from the tree: [`Octree::closest_hits4`] would find no hit for any of them (by the
-    /// root test of both its walks), so a caller can skip preparing its tests. Four background
-    /// pixels, mostly; a ray that enters ends the check.
+    /// True if none of the packet's rays enters the tree's root cell within `t_max` and no
+    /// primitive is set apart from the tree: [`Octree::closest_hits4`] would find no hit for
+    /// any of them (by its root test), so a caller can skip preparing its tests. Four
+    /// background pixels, mostly; a ray that enters ends the check.
     ///
-    /// The four root tests are made in vector lanes, one lane a ray ([`Aabb::missed_by4`]): a
-    /// ray with a zero direction component is never reported, so such a packet goes on to the
-    /// walks, which answer it. On SPD's tetra, four fifths of whose pixels are background, the
-    /// four tests one ray at a time (each with its division) were about a third of a
-    /// background pixel's work.
+    /// The four root tests are made in vector lanes ([`Aabb::enter4`]), as the walk makes them.
+    /// On SPD's tetra, four fifths of whose pixels are background, the four tests one ray at a
+    /// time (each with its division) were about a third of a background pixel's work.
     ///
-    /// [`Aabb::missed_by4`]: crate::math::aabb::Aabb::missed_by4
-    pub fn missed_by4(&self, rays: &[Ray; LANES], t_max: f32) -> bool {
-        if !self.large.is_empty() {
-            return false;
-        }
-        let lanes = |v: &dyn Fn(&Ray) -> Vec3| {
-            let [a, b, c, d] = rays.each_ref().map(v);
-            [0, 1, 2].map(|k| Vec4::new(a[k], b[k], c[k], d[k]))
-        };
-        let origin = lanes(&|r| r.origin);
-        // Each lane `inv_dir`'s quotient, as the walks take it.
-        let inv_dir = lanes(&|r| r.dir).map(|d| Vec4::ONE / d);
-        self.root.missed_by4(&origin, &inv_dir, Vec4::splat(t_max)) == ALL_LANES
+    /// [`Aabb::enter4`]: crate::math::aabb::Aabb::enter4
+    pub fn missed_by4(&self, packet: &Packet, t_max: f32) -> bool {
+        self.large.is_empty()
+            && self
+                .root
+                .missed_by4(&packet.origin, &packet.inv_dir, Vec4::splat(t_max))
+                == ALL_LANES
     }
 
     /// Visits the non-empty leaves the packet's rays cross, nearest leaves first for each ray:
@@ -282,8 +268,16 @@ impl Octree {
             t1: Vec4::NEG_INFINITY,
             ..Entry4::default()
         };
-        for (l, (ray, t_max)) in packet.rays.iter().zip(t_max).enumerate() {
-            if let Some((t0, t1)) = self.root.intersect(ray, packet.inv_dir[l], t_max) {
+        let (t0, t1, exact) =
+            self.root
+                .enter4(&packet.origin, &packet.inv_dir, Vec4::from_array(t_max));
+        let entered = t0.cmple(t1) & exact;
+        root.t0 = Vec4::select(entered, t0 * (1.0 - WIDEN), root.t0);
+        root.t1 = Vec4::select(entered, t1, root.t1);
+        // Lanes the vector test could not answer exactly: one ray at a time.
+        for l in lanes_of(!exact.bitmask() & ALL_LANES) {
+            let (ray, inv_dir) = (&packet.rays[l], packet.ray_inv_dir(l));
+            if let Some((t0, t1)) = self.root.intersect(ray, inv_dir, t_max[l]) {
                 root.t0[l] = t0 * (1.0 - WIDEN);
                 root.t1[l] = t1;
             }
@@ -359,11 +353,7 @@ fn push_children4<const S: usize>(
     for a in 0..3 {
         let gap = Vec4::splat(mid[a]) - packet.origin[a];
         // An origin on the plane crosses it at 0, also where `1/d` overflows (0 · ∞).
-        let c = Vec4::select(
-            gap.cmpeq(Vec4::ZERO),
-            Vec4::ZERO,
-            gap * packet.lane_inv_dir[a],
-        );
+        let c = Vec4::select(gap.cmpeq(Vec4::ZERO), Vec4::ZERO, gap * packet.inv_dir[a]);
         inside[a] = c.cmpgt(t0) & c.cmplt(t1);
         let side = Vec4::select(t0.cmpge(c), Vec4::NEG_INFINITY, Vec4::INFINITY);
         lo[a] = Vec4::select(inside[a], c * (1.0 - WIDEN), side);
@@ -485,7 +475,7 @@ fn one_ray_children(
         depth: e.depth,
         child: e.child,
     };
-    let (ray, inv_dir) = (&packet.rays[l], packet.inv_dir[l]);
+    let (ray, inv_dir) = (&packet.rays[l], packet.ray_inv_dir(l));
     push_children(ray, inv_dir, &one, node, mid, stack, 0)
 }
 
@@ -556,7 +546,7 @@ mod tests {
             }
             let lo_hi: [(Vec4, Vec4, BVec4A); 3] = core::array::from_fn(|a| {
                 let gap = Vec4::splat(mid[a]) - packet.origin[a];
-                let c = gap * packet.lane_inv_dir[a];
+                let c = gap * packet.inv_dir[a];
                 let inside = c.cmpgt(e.t0) & c.cmplt(e.t1);
                 (c * (1.0 - WIDEN), c * (1.0 + WIDEN), inside)
             });
