@@ -24,13 +24,16 @@
 //! neighbouring pixels almost always qualify; other rays make no [`Packet`], and the scene
 //! walks them one at a time.
 
-use super::traverse::{next_cell, push_children, sized, Entry, Mailbox, Path, SizedWalk, WIDEN};
+use super::traverse::{
+    next_cell, push_children, sized, Entry, Path, SizedWalk, MAILBOX_SLOTS, WIDEN,
+};
 use super::{Node, Octree};
 use crate::accel::work::QueryWork;
 use crate::geom::hit::{Closest, RayHit};
 use crate::math::ray::Ray;
 use alloc::vec::Vec;
 use glam::{BVec4A, Vec3, Vec4};
+use wide::{i32x4, CmpEq};
 
 /// Rays per packet.
 pub const LANES: usize = 4;
@@ -137,6 +140,45 @@ fn shared_signs(dir: &[Vec4; 3]) -> Option<usize> {
 /// Every lane's bit.
 const ALL_LANES: u32 = (1 << LANES) - 1;
 
+/// The four rays' mailboxes (each the one-ray walk's `Mailbox`), slot by slot in vector lanes,
+/// lane `l` ray `l`'s: one comparison and one select visit a primitive for every ray entering
+/// the leaf, where a loop over the rays took a few instructions each. Lanes hold the indices'
+/// bits as `i32` (`wide` compares and selects those); `-1` is `u32::MAX`, which no primitive
+/// has.
+struct Mailboxes([i32x4; MAILBOX_SLOTS]);
+
+impl Mailboxes {
+    /// Empty mailboxes, except that ray `l`'s holds `leaving[l]`, if given, as if tested.
+    fn holding(leaving: [Option<u32>; LANES]) -> Self {
+        let mut slots = [[-1i32; LANES]; MAILBOX_SLOTS];
+        for (l, i) in leaving.into_iter().enumerate() {
+            if let Some(i) = i {
+                slots[i as usize % MAILBOX_SLOTS][l] = i as i32;
+            }
+        }
+        Mailboxes(slots.map(i32x4::new))
+    }
+
+    /// The rays among `entered` (a [`lane_mask`]) that see `i` for the first time since its
+    /// slot of their mailbox last held another primitive (bit `l` for ray `l`); their slots
+    /// now hold `i`, the other rays' are left alone.
+    #[inline(always)]
+    fn first_visits(&mut self, i: u32, entered: i32x4) -> u32 {
+        let slot = &mut self.0[i as usize % MAILBOX_SLOTS];
+        let i = i32x4::splat(i as i32);
+        let fresh = !slot.cmp_eq(i) & entered;
+        *slot = entered.blend(i, *slot);
+        fresh.move_mask() as u32
+    }
+}
+
+/// All ones in lane `l` where bit `l` of `bits` is set, zeros elsewhere.
+#[inline(always)]
+fn lane_mask(bits: u32) -> i32x4 {
+    let each = i32x4::new([1, 2, 4, 8]);
+    (i32x4::splat(bits as i32) & each).cmp_eq(each)
+}
+
 /// The lanes set in `bits` (bit `l` for lane `l`), lowest first.
 pub fn lanes_of(mut bits: u32) -> impl Iterator<Item = usize> {
     core::iter::from_fn(move || {
@@ -180,13 +222,11 @@ impl Octree {
         // A hit on a large primitive already bounds the ray's walk.
         let t_max = per_lane(|l| t_max.min(closest[l].cutoff()));
         // Each ray's mailbox starts with the primitive it leaves, as if tested already.
-        let mut mailboxes: [Mailbox; LANES] = per_lane(|l| Mailbox::holding(leaving[l]));
+        let mut mailboxes = Mailboxes::holding(leaving);
         work.octree_cells += self.walk4(packet, t_max, stack, |entered, indices| {
+            let entered = lane_mask(entered);
             for &i in indices {
-                let mut lanes = 0;
-                for l in lanes_of(entered) {
-                    lanes |= u32::from(mailboxes[l].first_visit(i)) << l;
-                }
+                let lanes = mailboxes.first_visits(i, entered);
                 if lanes != 0 {
                     tests += u64::from(lanes.count_ones());
                     test(lanes, i, &mut closest);

@@ -64,21 +64,12 @@ pub(super) fn sized<W: SizedWalk>(depth: u32, walk: W) -> W::Out {
 /// [`Octree::closest_hit_with`]), so a repeat could only report the same hit again or nothing.
 pub(super) struct Mailbox([u32; MAILBOX_SLOTS]);
 
-const MAILBOX_SLOTS: usize = 16;
+pub(super) const MAILBOX_SLOTS: usize = 16;
 
 impl Mailbox {
     pub(super) fn new() -> Self {
         // No primitive has index u32::MAX (indices count triangles and solids, both below it).
         Mailbox([u32::MAX; MAILBOX_SLOTS])
-    }
-
-    /// A mailbox that has seen `i` already, if given: a primitive the query need not test.
-    pub(super) fn holding(i: Option<u32>) -> Self {
-        let mut mailbox = Mailbox::new();
-        if let Some(i) = i {
-            mailbox.first_visit(i);
-        }
-        mailbox
     }
 
     /// True the first time `i` is seen since its slot last held another primitive.
