@@ -102,7 +102,13 @@ impl Node {
     /// For an interior node: true if child `c` is not an empty leaf (read without loading it).
     #[inline]
     pub fn child_occupied(&self, c: usize) -> bool {
-        self.count >> c & 1 == 1
+        self.occupied() >> c & 1 == 1
+    }
+
+    /// For an interior node: bit `c` set where child `c` is not an empty leaf.
+    #[inline]
+    pub fn occupied(&self) -> usize {
+        (self.count & 0xFF) as usize
     }
 }
 
