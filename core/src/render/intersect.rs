@@ -465,11 +465,11 @@ impl Scene {
         leaving: [Option<u32>; LANES],
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
-        let packet = match Packet::new(rays) {
-            Some(packet) if !self.group_spheres => packet,
-            // Rays that part (mirror rays off spheres, mostly) go one at a time, without the
-            // four rays' set-up for the tests; where spheres are tested in groups, all do.
-            _ => return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch)),
+        // Rays that part (mirror rays off spheres, mostly) go one at a time, without the four
+        // rays' set-up for the tests; where spheres are tested in groups, all do.
+        let packet = (!self.group_spheres).then(|| Packet::new(rays)).flatten();
+        let Some(packet) = packet else {
+            return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
         };
         let (spans, work, stack) = (
             &mut scratch.spans,
@@ -504,7 +504,8 @@ impl Scene {
                     }
                     // `first_hit` gives `first_hit_in_box`'s answer without its box: a lane
                     // left here passed the box above, or the box could not be asked four at
-                    // a time (a zero direction component, a NaN), or the object has none.
+                    // a time (a reciprocal direction that overflows, a NaN), or the object has
+                    // none.
                     for l in lanes_of(asked) {
                         let hit = self
                             .solids

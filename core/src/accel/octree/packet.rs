@@ -98,7 +98,7 @@ pub struct Packet<'a> {
 
 impl<'a> Packet<'a> {
     /// The packet, or `None` if the rays do not all go the same way along every axis (a zero
-    /// or NaN component included): those the octree's walks take one at a time.
+    /// or NaN component included): the scene walks those one ray at a time.
     pub fn new(rays: &'a [Ray; LANES]) -> Option<Self> {
         let lanes = |v: &dyn Fn(&Ray) -> Vec3| {
             let [a, b, c, d] = rays.each_ref().map(v);
