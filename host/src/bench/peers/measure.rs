@@ -1,7 +1,8 @@
 //! One scene, measured: `runs` rounds, each running Strahl and POV-Ray in turn, first on one
 //! thread (tracing time as each reports it) and then on two (the whole process, timed from
-//! spawn to exit). The medians of the rounds, the rays and work of the last one-thread runs,
-//! and their two images.
+//! spawn to exit). The medians of the rounds, each round's tracing-time ratio (the two runs of
+//! a round are seconds apart, so a pair shares the host's load), the rays and work of the last
+//! one-thread runs, and their two images.
 
 use super::child::{command_line, run_child};
 use super::povray::{parse_report, povray_command, PovrayReport};
@@ -41,6 +42,9 @@ pub struct SceneMeasure {
     pub strahl_trace: f64,
     /// Median tracing seconds, one thread: POV-Ray's `Trace Time`.
     pub povray_trace: f64,
+    /// Strahl's tracing seconds over POV-Ray's, one per round, each of a round's own pair
+    /// (rounds where POV-Ray reported no time left out).
+    pub trace_ratios: Vec<f64>,
     /// Median whole-process seconds on two threads, Strahl.
     pub strahl_whole: f64,
     /// Median whole-process seconds on two threads, POV-Ray.
@@ -58,6 +62,16 @@ pub struct SceneMeasure {
 /// The median of `secs`.
 fn median_secs(secs: &[f64]) -> f64 {
     median(secs.iter().map(|&s| Duration::from_secs_f64(s)).collect()).as_secs_f64()
+}
+
+/// `strahl[i] / povray[i]` for each round `i` where POV-Ray's time is above zero.
+fn round_ratios(strahl: &[f64], povray: &[f64]) -> Vec<f64> {
+    strahl
+        .iter()
+        .zip(povray)
+        .filter(|&(_, &p)| p > 0.0)
+        .map(|(&s, &p)| s / p)
+        .collect()
 }
 
 /// Runs `scene` `setup.runs` times on each tracer and each thread count, printing a line per
@@ -121,6 +135,7 @@ pub fn measure_scene(setup: &Setup, scene: &ScenePair) -> anyhow::Result<SceneMe
         anyhow::bail!("scene {name}: no runs");
     };
     Ok(SceneMeasure {
+        trace_ratios: round_ratios(&st, &pt),
         strahl_trace: median_secs(&st),
         povray_trace: median_secs(&pt),
         strahl_whole: median(sw).as_secs_f64(),
@@ -140,5 +155,13 @@ mod tests {
     fn median_of_seconds() {
         assert_eq!(median_secs(&[0.5, 0.25, 2.0]), 0.5);
         assert_eq!(median_secs(&[1.0]), 1.0);
+    }
+
+    #[test]
+    fn ratios_pair_each_rounds_runs() {
+        assert_eq!(
+            round_ratios(&[1.0, 3.0, 2.0], &[2.0, 0.0, 8.0]),
+            [0.5, 0.25]
+        );
     }
 }

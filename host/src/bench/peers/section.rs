@@ -73,6 +73,9 @@ pub fn section(facts: &RunFacts, rows: &[PeerRow]) -> String {
          - **whole s**: the whole process on two threads (`--workers 2`, `+WT2`), spawn to exit: \
          start-up, parsing, the octree or bounding boxes, tracing and the PNG.\n\
          - **ratio**: Strahl over POV-Ray, of the printed times; below 1, Strahl is faster.\n\
+         - **by round**: the median of the rounds' own tracing-time ratios (each round runs the \
+         two tracers seconds apart, so a pair shares the host's load of that moment), with the \
+         smallest and largest in brackets.\n\
          - **rays**: Strahl's `rays.total`; POV-Ray's `Rays` (camera, reflected, refracted and \
          transmitted rays) plus its `Shadow Ray Tests`. By kind in the second table.\n\
          - **tests/ray, cells/ray, octree depth, octree bytes**: Strahl's `--stats-json` (`work`, \

@@ -42,6 +42,16 @@ pub fn fmt_ratio(strahl: f64, povray: f64) -> String {
     }
 }
 
+/// The median of per-round ratios with their range, `0.33 (0.30–0.41)`; `-` for none.
+pub fn fmt_spread(ratios: &[f64]) -> String {
+    let mut sorted = ratios.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    match (sorted.first(), sorted.get(sorted.len() / 2), sorted.last()) {
+        (Some(lo), Some(mid), Some(hi)) => format!("{mid:.2} ({lo:.2}–{hi:.2})"),
+        _ => "-".to_string(),
+    }
+}
+
 /// A count with thousands separated by commas (`1,234,567`).
 pub fn fmt_count(n: u64) -> String {
     let digits = n.to_string();
@@ -78,21 +88,23 @@ fn pair(s: u64, p: u64) -> String {
 /// The comparison table.
 pub fn comparison_table(rows: &[PeerRow]) -> String {
     let mut t = String::from(
-        "| scene | POV-Ray trace s | Strahl trace s | ratio | POV-Ray whole s | Strahl whole s \
-         | ratio | rays Strahl / POV-Ray (total) | tests/ray | cells/ray | octree depth \
-         | octree bytes (+ sphere groups) | MAD R/G/B |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| scene | POV-Ray trace s | Strahl trace s | ratio | by round | POV-Ray whole s \
+         | Strahl whole s | ratio | rays Strahl / POV-Ray (total) | tests/ray | cells/ray \
+         | octree depth | octree bytes (+ sphere groups) | MAD R/G/B |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let m = &r.measure;
         let o = &m.strahl.octree;
         let _ = writeln!(
             t,
-            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} / {:.2} / {:.2} |",
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} \
+             | {:.2} / {:.2} / {:.2} |",
             r.name,
             fmt_secs(m.povray_trace),
             fmt_secs(m.strahl_trace),
             fmt_ratio(m.strahl_trace, m.povray_trace),
+            fmt_spread(&m.trace_ratios),
             fmt_secs(m.povray_whole),
             fmt_secs(m.strahl_whole),
             fmt_ratio(m.strahl_whole, m.povray_whole),
@@ -147,6 +159,7 @@ mod tests {
         PeerRow {
             name: "tiny".into(),
             measure: SceneMeasure {
+                trace_ratios: vec![2.5, 1.9, 2.0],
                 strahl_trace: 0.5004,
                 povray_trace: 0.25,
                 strahl_whole: 1.0,
@@ -183,8 +196,8 @@ mod tests {
         let line = t.lines().nth(2).expect("a row");
         assert_eq!(
             line,
-            "| tiny | 0.250 | 0.500 | 2.00 | 0.000 | 1.000 | - | 3,000 / 1,500 | 3.46 | - | 7 \
-             | 2.0 KiB | 1.00 / 0.50 / 12.35 |"
+            "| tiny | 0.250 | 0.500 | 2.00 | 2.00 (1.90–2.50) | 0.000 | 1.000 | - | 3,000 / 1,500 \
+             | 3.46 | - | 7 | 2.0 KiB | 1.00 / 0.50 / 12.35 |"
         );
         let mut grouped = row();
         grouped.measure.strahl.octree.group_bytes = Some(4096);
@@ -205,6 +218,8 @@ mod tests {
     #[test]
     fn ratios_are_of_the_printed_times() {
         assert_eq!(fmt_ratio(0.1234, 0.0996), format!("{:.2}", 0.123 / 0.100));
+        assert_eq!(fmt_spread(&[]), "-");
+        assert_eq!(fmt_spread(&[0.3]), "0.30 (0.30–0.30)");
         assert_eq!(fmt_count(999), "999");
         assert_eq!(fmt_count(1_234_567), "1,234,567");
     }
