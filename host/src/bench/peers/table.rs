@@ -42,7 +42,8 @@ pub fn fmt_ratio(strahl: f64, povray: f64) -> String {
     }
 }
 
-/// The median of per-round ratios with their range, `0.33 (0.30–0.41)`; `-` for none.
+/// The median of per-round ratios (the upper one of an even count, as every benchmark's median)
+/// with their range, `0.33 (0.30–0.41)`; `-` for none.
 pub fn fmt_spread(ratios: &[f64]) -> String {
     let mut sorted = ratios.to_vec();
     sorted.sort_by(f64::total_cmp);
