@@ -73,6 +73,22 @@ fn assert_ratio(ratio: &str, povray: &str, strahl: &str) {
     }
 }
 
+/// The by-round cell of a run of one round: that round's ratio as its median, smallest and
+/// largest (`0.19 (0.19–0.19)`), or `-` where POV-Ray reported no time.
+fn assert_one_round(cell: &str) {
+    if cell == "-" {
+        return;
+    }
+    let (median, range) = cell.split_once(" (").unwrap_or_else(|| panic!("`{cell}`"));
+    let (lo, hi) = range
+        .strip_suffix(')')
+        .and_then(|r| r.split_once('–'))
+        .unwrap_or_else(|| panic!("`{cell}`"));
+    let ratio: f64 = median.parse().unwrap_or_else(|_| panic!("`{cell}`"));
+    assert!(ratio > 0.0, "`{cell}`");
+    assert_eq!((lo, hi), (median, median), "one round: `{cell}`");
+}
+
 /// The two counts of `a / b` (thousands separated by commas).
 fn counts(cell: &str) -> (u64, u64) {
     let n = |s: &str| -> u64 {
@@ -93,21 +109,22 @@ fn optional_number(cell: &str) {
 /// Checks the comparison row of `stdout` and returns it as printed.
 fn check_row(stdout: &str) -> String {
     let c = row(stdout, "tiny");
-    assert_eq!(c.len(), 13, "{c:?}");
+    assert_eq!(c.len(), 14, "{c:?}");
     assert_ratio(c[3], c[1], c[2]);
-    assert_ratio(c[6], c[4], c[5]);
+    assert_one_round(c[4]);
+    assert_ratio(c[7], c[5], c[6]);
     assert!(
-        secs(c[4]) > 0.0 && secs(c[5]) > 0.0,
+        secs(c[5]) > 0.0 && secs(c[6]) > 0.0,
         "whole processes take time: {c:?}"
     );
-    let (s, p) = counts(c[7]);
+    let (s, p) = counts(c[8]);
     // 24×24 camera rays each, and shadow rays towards the one light.
     assert!(s > 576 && p > 576, "{c:?}");
     // tests/ray, cells/ray, octree depth, octree bytes (`1.3 MiB`).
-    for cell in &c[8..12] {
+    for cell in &c[9..13] {
         optional_number(cell.split(' ').next().unwrap_or_default());
     }
-    let mad: Vec<f64> = c[12]
+    let mad: Vec<f64> = c[13]
         .split(" / ")
         .map(|v| v.parse().expect("MAD is a number"))
         .collect();
