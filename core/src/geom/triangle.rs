@@ -11,6 +11,10 @@
 //! parallel to a large triangle), `t` and its bound are computed again in `f64` (`refine_in_f64`),
 //! whose bound is some 5·10⁸ times tighter; a hit whose `t` is still not provably positive is
 //! rejected. The inside/outside decision is always the `f32` one, so watertightness is kept.
+//!
+//! [`intersect4`] takes the same steps for four rays that share an axis permutation
+//! ([`RayFrame4`], a packet's rays), one ray a lane, and leaves to [`intersect`] the rays whose
+//! answer needs an `f64` step: every answer is `intersect`'s to the bit.
 
 use crate::math::float::{gamma, next_float_up, MACHINE_EPSILON};
 use crate::math::norm::Norm;
@@ -156,7 +160,7 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
     let max_yt = p0y.abs().max(p1y.abs()).max(p2y.abs());
     let max_e = e0.abs().max(e1.abs()).max(e2.abs());
     let delta_t = t_error_bound(
-        gamma,
+        (|c| c, gamma),
         [max_xt, max_yt, max_zt],
         max_z_world,
         [frame.sx.abs(), frame.sy.abs()],
@@ -178,7 +182,7 @@ pub fn intersect(frame: &RayFrame, p: &[Vec3; 3], t_max: f32) -> Option<Triangle
     refine_in_f64(frame, p, t_max, [e0 * inv_det, e1 * inv_det, e2 * inv_det])
 }
 
-/// Four rays' frames with one axis permutation, lane by lane, for [`may_hit4`].
+/// Four rays' frames with one axis permutation, lane by lane, for [`intersect4`].
 #[derive(Clone, Copy, Debug)]
 pub struct RayFrame4 {
     kx: usize,
@@ -188,6 +192,7 @@ pub struct RayFrame4 {
     origin: [Vec4; 3],
     sx: Vec4,
     sy: Vec4,
+    sz: Vec4,
 }
 
 impl RayFrame4 {
@@ -207,16 +212,51 @@ impl RayFrame4 {
             origin: core::array::from_fn(|k| lanes(&|f| f.permuted_origin[k])),
             sx: lanes(&|f| f.sx),
             sy: lanes(&|f| f.sy),
+            sz: lanes(&|f| f.sz),
         })
     }
 }
 
-/// The rays among `lanes` (bit `l` for ray `l`) for which [`intersect`] may find a hit of
-/// triangle `p`: the others' edge functions, computed in four lanes by the very operations
-/// `intersect` uses, have both signs and none is zero, so `intersect` returns `None` for them
-/// whatever its `t_max`. The filter of a camera packet's leaf tests: most tests end there.
+/// What [`intersect4`] decided for four rays and one triangle: the rays that hit it, with their
+/// hits in lanes, and the rays it left to [`intersect`].
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleHits4 {
+    /// The rays (bit `l` for ray `l`) that hit, as [`intersect`] would report it.
+    pub hit: u32,
+    /// The rays whose answer only [`intersect`] gives: an edge function of exactly zero (decided
+    /// in `f64`), a `t` whose sign the `f32` bound cannot tell, or a zero or NaN determinant.
+    pub undecided: u32,
+    t: Vec4,
+    t_error: Vec4,
+    b: [Vec4; 3],
+}
+
+impl TriangleHits4 {
+    /// Ray `l`'s hit (meaningful where bit `l` of [`TriangleHits4::hit`] is set).
+    #[inline]
+    pub fn of(&self, l: usize) -> TriangleHit {
+        TriangleHit {
+            t: self.t[l],
+            t_error: self.t_error[l],
+            b: self.b.map(|b| b[l]),
+        }
+    }
+}
+
+/// [`intersect`] for the rays among `lanes` (bit `l` for ray `l`), four at a time, against
+/// ray `l`'s bound `t_max[l]`: each lane takes the very operations `intersect` takes, in its
+/// order, so a hit it reports is `intersect`'s to the bit. The rays whose edge functions have
+/// both signs (none zero) miss, as in `intersect`, and most tests end there; a ray whose answer
+/// `intersect` finds by its `f64` steps is left to it ([`TriangleHits4::undecided`]).
 #[inline]
-pub fn may_hit4(frame: &RayFrame4, p: &[Vec3; 3], lanes: u32) -> u32 {
+pub fn intersect4(frame: &RayFrame4, p: &[Vec3; 3], lanes: u32, t_max: Vec4) -> TriangleHits4 {
+    let mut four = TriangleHits4 {
+        hit: 0,
+        undecided: 0,
+        t: Vec4::ZERO,
+        t_error: Vec4::ZERO,
+        b: [Vec4::ZERO; 3],
+    };
     let [ox, oy, oz] = frame.origin;
     let moved = |q: &Vec3| {
         let q: &[f32; 3] = q.as_ref();
@@ -237,27 +277,60 @@ pub fn may_hit4(frame: &RayFrame4, p: &[Vec3; 3], lanes: u32) -> u32 {
     let e1 = p2x * p0y - p2y * p0x;
     let e2 = p0x * p1y - p0y * p1x;
     let zero = Vec4::ZERO;
-    let some_zero = e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero);
+    let some_zero = (e0.cmpeq(zero) | e1.cmpeq(zero) | e2.cmpeq(zero)).bitmask();
     let negative = e0.cmplt(zero) | e1.cmplt(zero) | e2.cmplt(zero);
     let positive = e0.cmpgt(zero) | e1.cmpgt(zero) | e2.cmpgt(zero);
-    let missed = (negative & positive).bitmask() & !some_zero.bitmask();
-    lanes & !missed
+    let missed = (negative & positive).bitmask() & !some_zero;
+    let live = lanes & !missed;
+    if live == 0 {
+        return four;
+    }
+    let det = e0 + e1 + e2;
+    let max_z_world = p0z.abs().max(p1z.abs()).max(p2z.abs());
+    let (p0z, p1z, p2z) = (p0z * frame.sz, p1z * frame.sz, p2z * frame.sz);
+    let t_scaled = e0 * p0z + e1 * p1z + e2 * p2z;
+    let inv_det = Vec4::ONE / det;
+    let t = t_scaled * inv_det;
+    let max_abs = |a: Vec4, b: Vec4, c: Vec4| a.abs().max(b.abs()).max(c.abs());
+    let delta_t = t_error_bound(
+        (Vec4::splat, |n| Vec4::splat(gamma(n))),
+        [
+            max_abs(p0x, p1x, p2x),
+            max_abs(p0y, p1y, p2y),
+            max_abs(p0z, p1z, p2z),
+        ],
+        max_z_world,
+        [sx.abs(), sy.abs()],
+        max_abs(e0, e1, e2),
+    ) * inv_det.abs();
+    // A NaN anywhere above makes `t` NaN, which no comparison below passes (so the lanes'
+    // `max`, which differs from `f32::max` only on NaN, decides nothing by itself).
+    let sure = live & !some_zero & !det.cmpeq(zero).bitmask();
+    let ahead = t.cmpgt(delta_t).bitmask();
+    let within = t.cmplt(t_max).bitmask();
+    let behind = t.cmplt(-delta_t).bitmask();
+    four.hit = sure & ahead & within;
+    four.undecided = live & !(sure & (ahead | behind));
+    four.t = t;
+    four.t_error = delta_t + t * MACHINE_EPSILON;
+    four.b = [e0 * inv_det, e1 * inv_det, e2 * inv_det];
+    four
 }
 
 /// The bound on `|t_computed − t| · |det|` for the watertight test (pbrt-v4's derivation), in
-/// the precision whose `gamma` is given. `max_t` holds the largest `|x|`, `|y|` of the sheared
+/// the precision (or the lanes) whose constants and `gamma` are given. `max_t` holds the largest `|x|`, `|y|` of the sheared
 /// vertices and the largest scaled `|z|`; `max_z_world` is the largest `|z|` before scaling and
 /// `shear` the shear factors' magnitudes `|sx|`, `|sy|`.
 #[inline]
 fn t_error_bound<F>(
-    gamma: impl Fn(u32) -> F,
+    (constant, gamma): (impl Fn(f32) -> F, impl Fn(u32) -> F),
     max_t: [F; 3],
     max_z_world: F,
     shear: [F; 2],
     max_e: F,
 ) -> F
 where
-    F: Copy + core::ops::Add<Output = F> + core::ops::Mul<Output = F> + From<f32>,
+    F: Copy + core::ops::Add<Output = F> + core::ops::Mul<Output = F>,
 {
     let [max_xt, max_yt, max_zt] = max_t;
     let [sx, sy] = shear;
@@ -268,8 +341,9 @@ where
     // nearly parallel to the triangle, where a bound with `|sx| = 1` would reject true hits.
     let delta_x = gamma(5) * (max_xt + sx * max_z_world);
     let delta_y = gamma(5) * (max_yt + sy * max_z_world);
-    let delta_e = F::from(2.0) * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
-    F::from(3.0) * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
+    let delta_e =
+        constant(2.0) * (gamma(2) * max_xt * max_yt + delta_y * max_xt + delta_x * max_yt);
+    constant(3.0) * (gamma(3) * max_e * max_zt + delta_e * max_zt + delta_z * max_e)
 }
 
 /// Recomputes the hit's `t` and its bound in `f64` from the ray and the vertices, for a hit the
@@ -313,7 +387,7 @@ fn refine_in_f64(
     let max_abs = |i: usize| v[0][i].abs().max(v[1][i].abs()).max(v[2][i].abs());
     let max_z_world = max_abs(2);
     let delta_t = t_error_bound(
-        gamma_f64,
+        (f64::from, gamma_f64),
         [max_abs(0), max_abs(1), max_z_world * sz.abs()],
         max_z_world,
         [sx.abs(), sy.abs()],
@@ -385,14 +459,15 @@ mod tests {
         ]
     }
 
-    /// `may_hit4` drops a ray only where `intersect` finds no hit: rays at random points of
-    /// random triangles, near them, and exactly at their vertices and edge midpoints (edge
-    /// functions of zero, decided in `f64`).
+    /// `intersect4` answers each ray as `intersect` does, to the bit, or leaves it to it: rays
+    /// at random points of random triangles, near them, and exactly at their vertices and edge
+    /// midpoints (edge functions of zero, decided in `f64`), each with its own bound (none, one
+    /// past the triangle or one before it, and one at the hit itself).
     #[test]
-    fn the_four_ray_filter_drops_only_misses() {
+    fn four_rays_at_once_answer_as_one_at_a_time() {
         let mut rng = crate::scene::mesh::Rng::new(0x9e37_79b9);
         let mut unit = move || rng.next_f32();
-        let (mut dropped, mut kept_hits, mut packets) = (0, 0, 0);
+        let (mut hits, mut misses, mut undecided, mut packets) = (0, 0, 0, 0);
         for case in 0..40_000 {
             let mut v = || Vec3::new(unit(), unit(), unit()) * 4.0 - 2.0;
             let p = [v(), v(), v()];
@@ -411,24 +486,52 @@ mod tests {
                 continue;
             };
             packets += 1;
+            let unbounded = frames.map(|f| intersect(&f, &p, f32::INFINITY));
+            let bounds = Vec4::from(core::array::from_fn(|l| match (case / 4 + l) % 4 {
+                0 => f32::INFINITY,
+                1 => unit() * 2.0,
+                _ => unbounded[l].map_or(1.0, |h| h.t),
+            }));
             let lanes = 0b1011 | (case as u32 & 4);
-            let kept = may_hit4(&four, &p, lanes);
-            assert_eq!(kept & !lanes, 0, "case {case}: a lane not asked for");
+            let got = intersect4(&four, &p, lanes, bounds);
+            assert_eq!(
+                (got.hit | got.undecided) & !lanes,
+                0,
+                "case {case}: a lane not asked"
+            );
+            assert_eq!(
+                got.hit & got.undecided,
+                0,
+                "case {case}: a lane both hit and undecided"
+            );
             for (l, frame) in frames.iter().enumerate() {
-                let hit = intersect(frame, &p, f32::INFINITY);
-                if lanes >> l & 1 == 1 && kept >> l & 1 == 0 {
-                    assert!(hit.is_none(), "case {case} lane {l}: a hit dropped");
-                    dropped += 1;
+                if lanes >> l & 1 == 0 {
+                    continue;
                 }
-                kept_hits += usize::from(kept >> l & 1 == 1 && hit.is_some());
+                let want = intersect(frame, &p, bounds[l]);
+                if got.undecided >> l & 1 == 1 {
+                    undecided += 1;
+                    continue;
+                }
+                let lane = (got.hit >> l & 1 == 1).then(|| got.of(l));
+                let bits = |h: Option<TriangleHit>| {
+                    h.map(|h| (h.t.to_bits(), h.t_error.to_bits(), h.b.map(f32::to_bits)))
+                };
+                assert_eq!(bits(lane), bits(want), "case {case} lane {l}");
+                hits += usize::from(lane.is_some());
+                misses += usize::from(lane.is_none());
             }
         }
         assert!(
             packets > 20_000,
             "only {packets} packets share a permutation"
         );
-        assert!(dropped > 10_000, "only {dropped} misses dropped");
-        assert!(kept_hits > 10_000, "only {kept_hits} hits kept");
+        assert!(hits > 10_000, "only {hits} hits found four at a time");
+        assert!(misses > 10_000, "only {misses} misses found four at a time");
+        assert!(
+            undecided > 100,
+            "only {undecided} rays left to the one-ray test"
+        );
     }
 
     #[test]

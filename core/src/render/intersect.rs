@@ -24,7 +24,7 @@ use crate::geom::axis_planes::AxisPlanes;
 use crate::geom::hit::{closer, Closest, RayHit};
 use crate::geom::solid::lone_sphere::SphereGroup;
 use crate::geom::solid::prepared::{SolidHit, SpanScratch};
-use crate::geom::triangle::{intersect, may_hit4, RayFrame, RayFrame4, TriangleHit};
+use crate::geom::triangle::{intersect, intersect4, RayFrame, RayFrame4, TriangleHit};
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use crate::math::ray::Ray;
@@ -516,12 +516,20 @@ impl Scene {
                     }
                     return;
                 };
-                // Four rays' edge functions at once, where they share an axis permutation: most
-                // tests end there.
-                let may_hit = frame4
-                    .as_ref()
-                    .map_or(asked, |f| may_hit4(f, triangle, asked));
-                for l in lanes_of(may_hit) {
+                // Four rays at once where they share an axis permutation, one at a time where
+                // they do not, or where only the one-ray test's `f64` steps can answer.
+                let undecided = match &frame4 {
+                    Some(f) => {
+                        let bounds = Vec4::from(per_lane(|l| closest[l].bound()));
+                        let four = intersect4(f, triangle, asked, bounds);
+                        for l in lanes_of(four.hit) {
+                            closest[l].offer(i, PrimitiveHit::Triangle(i, four.of(l)));
+                        }
+                        four.undecided
+                    }
+                    None => asked,
+                };
+                for l in lanes_of(undecided) {
                     if let Some(h) = intersect(&triangles[l], triangle, closest[l].bound()) {
                         closest[l].offer(i, PrimitiveHit::Triangle(i, h));
                     }

@@ -7,7 +7,7 @@
 //! primitive once to the caller's test with the rays that enter the leaf and have not tested
 //! it yet (each ray keeps its own mailbox); the test decides for each of them as the one-ray
 //! test does (the scene's test filters triangles and lone spheres four rays at a time,
-//! `may_hit4` and `surely_missed_by4`).
+//! `intersect4` and `surely_missed_by4`).
 //!
 //! Each ray gets the one-ray walk's answer. Its pieces are the one-ray walk's to the bit: a
 //! crossing inside a ray's interval cuts it, widened by [`WIDEN`], and one outside decides the
