@@ -318,9 +318,9 @@ pub fn intersect4(frame: &RayFrame4, p: &[Vec3; 3], lanes: u32, t_max: Vec4) -> 
 }
 
 /// The bound on `|t_computed − t| · |det|` for the watertight test (pbrt-v4's derivation), in
-/// the precision (or the lanes) whose constants and `gamma` are given. `max_t` holds the largest `|x|`, `|y|` of the sheared
-/// vertices and the largest scaled `|z|`; `max_z_world` is the largest `|z|` before scaling and
-/// `shear` the shear factors' magnitudes `|sx|`, `|sy|`.
+/// the precision (or the lanes) whose constants and `gamma` are given. `max_t` holds the
+/// largest `|x|`, `|y|` of the sheared vertices and the largest scaled `|z|`; `max_z_world` is
+/// the largest `|z|` before scaling and `shear` the shear factors' magnitudes `|sx|`, `|sy|`.
 #[inline]
 fn t_error_bound<F>(
     (constant, gamma): (impl Fn(f32) -> F, impl Fn(u32) -> F),
