@@ -8,10 +8,9 @@ use super::child::{command_line, run_child};
 use super::povray::{parse_report, povray_command, PovrayReport};
 use super::scenes::ScenePair;
 use super::strahl::{parse_stats, strahl_command, StrahlReport};
-use crate::bench::stats::median;
+use crate::bench::stats::{median, median_by};
 use anyhow::Context as _;
 use std::path::{Path, PathBuf};
-use std::time::Duration;
 
 /// Threads of the tracing-time runs.
 pub const TRACE_THREADS: u32 = 1;
@@ -59,9 +58,9 @@ pub struct SceneMeasure {
     pub povray_image: PathBuf,
 }
 
-/// The median of `secs`.
+/// The median of `secs` (zero for none, which no scene has: it takes at least one run).
 fn median_secs(secs: &[f64]) -> f64 {
-    median(secs.iter().map(|&s| Duration::from_secs_f64(s)).collect()).as_secs_f64()
+    median_by(secs.to_vec(), f64::total_cmp).unwrap_or_default()
 }
 
 /// `strahl[i] / povray[i]` for each round `i` where POV-Ray's time is above zero.

@@ -8,6 +8,7 @@
 use super::measure::SceneMeasure;
 use super::rays::RaysByKind;
 use super::strahl::OctreeShape;
+use crate::bench::stats::median_by;
 use crate::util::units::format_bytes;
 use std::fmt::Write as _;
 
@@ -42,13 +43,16 @@ pub fn fmt_ratio(strahl: f64, povray: f64) -> String {
     }
 }
 
-/// The median of per-round ratios (the upper one of an even count, as every benchmark's median)
-/// with their range, `0.33 (0.30–0.41)`; `-` for none.
+/// The median of per-round ratios ([`median_by`]) with their range, `0.33 (0.30–0.41)`; `-`
+/// for none.
 pub fn fmt_spread(ratios: &[f64]) -> String {
-    let mut sorted = ratios.to_vec();
-    sorted.sort_by(f64::total_cmp);
-    match (sorted.first(), sorted.get(sorted.len() / 2), sorted.last()) {
-        (Some(lo), Some(mid), Some(hi)) => format!("{mid:.2} ({lo:.2}–{hi:.2})"),
+    let extreme = |pick: fn(f64, f64) -> f64| ratios.iter().copied().reduce(pick);
+    match (
+        median_by(ratios.to_vec(), f64::total_cmp),
+        extreme(f64::min),
+        extreme(f64::max),
+    ) {
+        (Some(mid), Some(lo), Some(hi)) => format!("{mid:.2} ({lo:.2}–{hi:.2})"),
         _ => "-".to_string(),
     }
 }
