@@ -16,13 +16,17 @@
 //! 3. The remaining candidates get the separating-axis test (triangles: the triangle's axes and
 //!    its extent along them made once, [`TriangleAxes`], then each child's offset projected),
 //!    the sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the
-//!    box test (other solids).
+//!    box test (other solids). The solids' tests look at a box one axis at a time, so each
+//!    axis's lower and upper side is looked at once for all the children
+//!    ([`ChildCells::children_where`]).
 //!
 //! A triangle is filed in every candidate child it touches and in none it misses by more than
 //! twice the margin (the margin covers the test's rounding; the tests below check both against
 //! the test in `f64`, also for triangles that touch a child at a corner alone).
 
-use super::overlap::{segment_box_overlap, sphere_surface_box_overlap, TriangleAxes};
+use super::overlap::{
+    axis_terms, segment_within, slab_interval, sphere_surface_within, TriangleAxes,
+};
 use crate::accel::prefetch::prefetch;
 use crate::geom::solid::extent::SolidExtent;
 use crate::math::aabb::Aabb;
@@ -106,6 +110,30 @@ impl ChildCells {
         reached(inside(self.lower), inside(self.upper))
     }
 
+    /// The children among `candidates` whose grown box passes `test`, where a child's box is
+    /// its sides along the three axes, each a side of the cell's lower or upper grown half:
+    /// `side(a, l, h)` says what a test needs of the side `l..h` along axis `a`, and is asked
+    /// once for each of the six halves; `test` gets a child's three answers, axis by axis. So a
+    /// test that looks at a box one axis at a time gives each child the answer it gives that
+    /// child's box, to the bit, with six sides computed where each child took three.
+    #[inline]
+    fn children_where<T: Copy>(
+        &self,
+        candidates: u8,
+        side: impl Fn(usize, f32, f32) -> T,
+        test: impl Fn([T; 3]) -> bool,
+    ) -> u8 {
+        let sides: [[T; 2]; 3] = core::array::from_fn(|a| {
+            let half = |(lo, hi): (Vec3A, Vec3A)| side(a, lo[a], hi[a]);
+            [half(self.lower), half(self.upper)]
+        });
+        let mut mask = 0;
+        for c in bits(candidates) {
+            mask |= u8::from(test(core::array::from_fn(|a| sides[a][c >> a & 1]))) << c;
+        }
+        mask
+    }
+
     /// The children the box `min..max` may reach, by exact comparisons with the centre planes,
     /// and whether it straddles one of them. A box on one side of a plane, touching it or lying
     /// in it, goes to that side only: its points on the plane are in that side's closed cells
@@ -185,24 +213,53 @@ impl Filing<'_> {
         mask
     }
 
-    /// [`Filing::children_touched`] for solid `j`.
+    /// [`Filing::children_touched`] for solid `j`: among the candidates, the children it
+    /// touches: a lone sphere where its surface is, a lone cylinder or cone near its axis and
+    /// within its reject box, another solid by its reject box. Each test looks at a box one axis
+    /// at a time, so each axis's two sides are computed once ([`ChildCells::children_where`]);
+    /// the tests check every answer against `solid_touches`, the same tests on one child's box.
     fn solid_children(&self, cells: &ChildCells, j: usize) -> u8 {
-        let b = &self.reach[j];
-        let (candidates, straddles) = cells.candidates(b.min.into(), b.max.into());
+        let reach = &self.reach[j];
+        let (candidates, straddles) = cells.candidates(reach.min.into(), reach.max.into());
         if !straddles {
             return candidates;
         }
-        let mut mask = 0;
-        for c in bits(candidates) {
-            let (lo, hi) = cells.grown[c];
-            mask |= u8::from(self.solid_touches(j, lo.into(), hi.into())) << c;
+        // The reject box meets a box where it meets each of its sides (`Aabb::meets`).
+        let meets = |a: usize, l: f32, h: f32| reach.min[a] <= h && reach.max[a] >= l;
+        match self.solids.get(j) {
+            Some(&SolidExtent::Sphere {
+                center,
+                radius,
+                margin,
+                ..
+            }) => cells.children_where(
+                candidates,
+                |a, l, h| axis_terms(center[a], l, h),
+                |terms| sphere_surface_within(radius, margin, terms),
+            ),
+            Some(&SolidExtent::Cone {
+                a: from,
+                b: to,
+                radius,
+                margin,
+                ..
+            }) => cells.children_where(
+                candidates,
+                |a, l, h| {
+                    (
+                        meets(a, l, h),
+                        slab_interval(from[a], to[a], radius + margin, l, h),
+                    )
+                },
+                |sides| sides.iter().all(|s| s.0) && segment_within(sides.map(|s| s.1)),
+            ),
+            _ => cells.children_where(candidates, meets, |sides| sides.iter().all(|&m| m)),
         }
-        mask
     }
 
-    /// True if solid `j` touches the grown box `lo..hi`: a lone sphere where its surface is, a
-    /// lone cylinder or cone near its axis and within its reject box, another solid by its reject
-    /// box.
+    /// True if solid `j` touches the grown box `lo..hi`, as [`Filing::solid_children`] decides
+    /// for a child: the tests' reference, one box at a time.
+    #[cfg(test)]
     fn solid_touches(&self, j: usize, lo: Vec3, hi: Vec3) -> bool {
         let reach = &self.reach[j];
         let in_reach = || reach.meets(&Aabb { min: lo, max: hi });
@@ -212,14 +269,14 @@ impl Filing<'_> {
                 radius,
                 margin,
                 ..
-            }) => sphere_surface_box_overlap(center, radius, margin, lo, hi),
+            }) => super::overlap::sphere_surface_box_overlap(center, radius, margin, lo, hi),
             Some(&SolidExtent::Cone {
                 a,
                 b,
                 radius,
                 margin,
                 ..
-            }) => in_reach() && segment_box_overlap(a, b, radius + margin, lo, hi),
+            }) => in_reach() && super::overlap::segment_box_overlap(a, b, radius + margin, lo, hi),
             _ => in_reach(),
         }
     }

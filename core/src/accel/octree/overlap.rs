@@ -10,6 +10,11 @@ use glam::{Vec3, Vec3A, Vec3Swizzles};
 /// `lo..hi`: the box reaches the sphere grown by `margin` and is not inside the sphere shrunk by
 /// it. A ray can only hit the sphere where its surface is, so a cell wholly inside or outside
 /// it needs no test of it. In `f64`, whose rounding is far below any margin a caller gives.
+///
+/// The build asks this of a cell's children through [`axis_terms`] and
+/// [`sphere_surface_within`], each axis's terms once for the children on one side of it; this
+/// one-box form is the tests' reference.
+#[cfg(test)]
 pub(super) fn sphere_surface_box_overlap(
     center: Vec3,
     radius: f32,
@@ -17,21 +22,35 @@ pub(super) fn sphere_surface_box_overlap(
     lo: Vec3,
     hi: Vec3,
 ) -> bool {
-    let (mut near, mut far) = (0.0f64, 0.0f64);
-    for a in 0..3 {
-        let c = f64::from(center[a]);
-        let (l, h) = (f64::from(lo[a]), f64::from(hi[a]));
-        let d = if c < l {
-            l - c
-        } else if c > h {
-            c - h
-        } else {
-            0.0
-        };
-        near += d * d;
-        let f = (c - l).abs().max((h - c).abs());
-        far += f * f;
-    }
+    let terms: [(f64, f64); 3] = core::array::from_fn(|a| axis_terms(center[a], lo[a], hi[a]));
+    sphere_surface_within(radius, margin, terms)
+}
+
+/// Along one axis, the squared distances from the centre coordinate `c` to the nearest and the
+/// farthest point of the box's side `l..h`: Arvo's terms, in `f64`.
+#[inline]
+pub(super) fn axis_terms(c: f32, l: f32, h: f32) -> (f64, f64) {
+    let (c, l, h) = (f64::from(c), f64::from(l), f64::from(h));
+    let d = if c < l {
+        l - c
+    } else if c > h {
+        c - h
+    } else {
+        0.0
+    };
+    let f = (c - l).abs().max((h - c).abs());
+    (d * d, f * f)
+}
+
+/// True if the surface of a sphere of `radius` comes within `margin` of the box whose
+/// [`axis_terms`] are `terms`: the box's nearest point lies within the sphere grown by `margin`
+/// and its farthest outside the sphere shrunk by it. The terms are summed axis by axis, so a
+/// caller that computes each axis's terms once for several boxes gets each box's answer to the
+/// bit.
+#[inline]
+pub(super) fn sphere_surface_within(radius: f32, margin: f32, terms: [(f64, f64); 3]) -> bool {
+    let near = terms[0].0 + terms[1].0 + terms[2].0;
+    let far = terms[0].1 + terms[1].1 + terms[2].1;
     let outer = f64::from(radius) + f64::from(margin);
     let inner = (f64::from(radius) - f64::from(margin)).max(0.0);
     near <= outer * outer && far >= inner * inner
@@ -42,22 +61,44 @@ pub(super) fn sphere_surface_box_overlap(
 /// corners' neighbourhoods besides), by the slab test in `f64`, whose rounding is far below any
 /// reach a caller gives. A cylinder or cone lies within its larger radius of its axis, so a box
 /// its axis passes farther from holds no point of it.
+///
+/// The build asks this of a cell's children through [`slab_interval`] and [`segment_within`];
+/// this one-box form is the tests' reference.
+#[cfg(test)]
 pub(super) fn segment_box_overlap(a: Vec3, b: Vec3, reach: f32, lo: Vec3, hi: Vec3) -> bool {
+    segment_within(core::array::from_fn(|k| {
+        slab_interval(a[k], b[k], reach, lo[k], hi[k])
+    }))
+}
+
+/// Along one axis, the part `t0..t1` of the segment `from`–`to` (`t` from 0 to 1) within the
+/// box's side `l..h` grown by `reach`, in `f64`: everything (`−∞..∞`) for a segment square to
+/// the axis within it, nothing (`∞..−∞`) for one outside it.
+#[inline]
+pub(super) fn slab_interval(from: f32, to: f32, reach: f32, l: f32, h: f32) -> (f64, f64) {
+    let (from, to) = (f64::from(from), f64::from(to));
+    let grown_lo = f64::from(l) - f64::from(reach);
+    let grown_hi = f64::from(h) + f64::from(reach);
+    let d = to - from;
+    if d == 0.0 {
+        return if from < grown_lo || from > grown_hi {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        } else {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        };
+    }
+    let (t0, t1) = ((grown_lo - from) / d, (grown_hi - from) / d);
+    (t0.min(t1), t0.max(t1))
+}
+
+/// True if the segment crosses the grown box whose [`slab_interval`]s are `slabs`: its part
+/// `0..1` cut by each, not empty.
+#[inline]
+pub(super) fn segment_within(slabs: [(f64, f64); 3]) -> bool {
     let (mut enter, mut leave) = (0.0f64, 1.0f64);
-    for axis in 0..3 {
-        let (from, to) = (f64::from(a[axis]), f64::from(b[axis]));
-        let grown_lo = f64::from(lo[axis]) - f64::from(reach);
-        let grown_hi = f64::from(hi[axis]) + f64::from(reach);
-        let d = to - from;
-        if d == 0.0 {
-            if from < grown_lo || from > grown_hi {
-                return false;
-            }
-            continue;
-        }
-        let (t0, t1) = ((grown_lo - from) / d, (grown_hi - from) / d);
-        enter = enter.max(t0.min(t1));
-        leave = leave.min(t0.max(t1));
+    for (t0, t1) in slabs {
+        enter = enter.max(t0);
+        leave = leave.min(t1);
     }
     enter <= leave
 }
