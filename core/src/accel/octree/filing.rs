@@ -25,7 +25,7 @@
 //! the test in `f64`, also for triangles that touch a child at a corner alone).
 
 use super::overlap::{
-    axis_terms, segment_within, slab_interval, sphere_surface_within, TriangleAxes,
+    axis_terms, segment_within, slab_interval, sphere_surface_children, TriangleAxes,
 };
 use crate::accel::prefetch::prefetch;
 use crate::geom::solid::extent::SolidExtent;
@@ -110,6 +110,16 @@ impl ChildCells {
         reached(inside(self.lower), inside(self.upper))
     }
 
+    /// Per axis `a`, `side(a, l, h)` of the side `l..h` of the cell's lower and upper grown
+    /// half along it.
+    #[inline]
+    fn sides<T>(&self, side: impl Fn(usize, f32, f32) -> T) -> [[T; 2]; 3] {
+        core::array::from_fn(|a| {
+            let half = |(lo, hi): (Vec3A, Vec3A)| side(a, lo[a], hi[a]);
+            [half(self.lower), half(self.upper)]
+        })
+    }
+
     /// The children among `candidates` whose grown box passes `test`, where a child's box is
     /// its sides along the three axes, each a side of the cell's lower or upper grown half:
     /// `side(a, l, h)` says what a test needs of the side `l..h` along axis `a`, and is asked
@@ -123,10 +133,7 @@ impl ChildCells {
         side: impl Fn(usize, f32, f32) -> T,
         test: impl Fn([T; 3]) -> bool,
     ) -> u8 {
-        let sides: [[T; 2]; 3] = core::array::from_fn(|a| {
-            let half = |(lo, hi): (Vec3A, Vec3A)| side(a, lo[a], hi[a]);
-            [half(self.lower), half(self.upper)]
-        });
+        let sides = self.sides(side);
         let mut mask = 0;
         for c in bits(candidates) {
             mask |= u8::from(test(core::array::from_fn(|a| sides[a][c >> a & 1]))) << c;
@@ -232,11 +239,10 @@ impl Filing<'_> {
                 radius,
                 margin,
                 ..
-            }) => cells.children_where(
-                candidates,
-                |a, l, h| axis_terms(center[a], l, h),
-                |terms| sphere_surface_within(radius, margin, terms),
-            ),
+            }) => {
+                let terms = cells.sides(|a, l, h| axis_terms(center[a], l, h));
+                candidates & sphere_surface_children(radius, margin, terms)
+            }
             Some(&SolidExtent::Cone {
                 a: from,
                 b: to,

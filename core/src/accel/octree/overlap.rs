@@ -5,15 +5,15 @@
 use crate::math::aabb::Aabb;
 use crate::math::float::gamma;
 use glam::{Vec3, Vec3A, Vec3Swizzles};
+use wide::{f64x4, CmpGe, CmpLe};
 
 /// True if the surface of the sphere `center`, `radius` comes within `margin` of the box
 /// `lo..hi`: the box reaches the sphere grown by `margin` and is not inside the sphere shrunk by
 /// it. A ray can only hit the sphere where its surface is, so a cell wholly inside or outside
 /// it needs no test of it. In `f64`, whose rounding is far below any margin a caller gives.
 ///
-/// The build asks this of a cell's children through [`axis_terms`] and
-/// [`sphere_surface_within`], each axis's terms once for the children on one side of it; this
-/// one-box form is the tests' reference.
+/// The build asks this of a cell's eight children at once ([`sphere_surface_children`], from
+/// each axis's [`axis_terms`] of its two sides); this one-box form is the tests' reference.
 #[cfg(test)]
 pub(super) fn sphere_surface_box_overlap(
     center: Vec3,
@@ -23,7 +23,10 @@ pub(super) fn sphere_surface_box_overlap(
     hi: Vec3,
 ) -> bool {
     let terms: [(f64, f64); 3] = core::array::from_fn(|a| axis_terms(center[a], lo[a], hi[a]));
-    sphere_surface_within(radius, margin, terms)
+    let near = terms[0].0 + terms[1].0 + terms[2].0;
+    let far = terms[0].1 + terms[1].1 + terms[2].1;
+    let (outer, inner) = shell(radius, margin);
+    near <= outer && far >= inner
 }
 
 /// Along one axis, the squared distances from the centre coordinate `c` to the nearest and the
@@ -42,18 +45,32 @@ pub(super) fn axis_terms(c: f32, l: f32, h: f32) -> (f64, f64) {
     (d * d, f * f)
 }
 
-/// True if the surface of a sphere of `radius` comes within `margin` of the box whose
-/// [`axis_terms`] are `terms`: the box's nearest point lies within the sphere grown by `margin`
-/// and its farthest outside the sphere shrunk by it. The terms are summed axis by axis, so a
-/// caller that computes each axis's terms once for several boxes gets each box's answer to the
-/// bit.
+/// The children of a cell (bit `c` for child `c`) whose box the surface of a sphere of `radius`
+/// comes within `margin` of: its nearest point within the sphere grown by `margin`, its farthest
+/// outside the sphere shrunk by it. `terms[a]` holds the [`axis_terms`] of the lower and the
+/// upper side along axis `a`; child `c` has the upper one where bit `a` of `c` is set. Children
+/// 0–3 and 4–7 fill the lanes of two `f64x4`, summed axis by axis as for one box alone
+/// (`sphere_surface_box_overlap`, the tests' reference): each answer to the bit.
 #[inline]
-pub(super) fn sphere_surface_within(radius: f32, margin: f32, terms: [(f64, f64); 3]) -> bool {
-    let near = terms[0].0 + terms[1].0 + terms[2].0;
-    let far = terms[0].1 + terms[1].1 + terms[2].1;
+pub(super) fn sphere_surface_children(radius: f32, margin: f32, terms: [[(f64, f64); 2]; 3]) -> u8 {
+    let sums = |of: fn((f64, f64)) -> f64| {
+        let [x, y, z] = terms.map(|sides| sides.map(of));
+        let xy = f64x4::new([x[0], x[1], x[0], x[1]]) + f64x4::new([y[0], y[0], y[1], y[1]]);
+        [xy + f64x4::splat(z[0]), xy + f64x4::splat(z[1])]
+    };
+    let (near, far) = (sums(|t| t.0), sums(|t| t.1));
+    let (outer, inner) = shell(radius, margin);
+    let (outer, inner) = (f64x4::splat(outer), f64x4::splat(inner));
+    let within = |k: usize| (near[k].cmp_le(outer) & far[k].cmp_ge(inner)).move_mask() as u8;
+    within(0) | within(1) << 4
+}
+
+/// The squared radii of the sphere of `radius` grown and shrunk by `margin` (not below zero).
+#[inline]
+fn shell(radius: f32, margin: f32) -> (f64, f64) {
     let outer = f64::from(radius) + f64::from(margin);
     let inner = (f64::from(radius) - f64::from(margin)).max(0.0);
-    near <= outer * outer && far >= inner * inner
+    (outer * outer, inner * inner)
 }
 
 /// True if the segment `a`–`b` comes within `reach` of the box `lo..hi`: it crosses the box
