@@ -53,16 +53,20 @@ pub(super) fn axis_terms(c: f32, l: f32, h: f32) -> (f64, f64) {
 /// (`sphere_surface_box_overlap`, the tests' reference): each answer to the bit.
 #[inline]
 pub(super) fn sphere_surface_children(radius: f32, margin: f32, terms: [[(f64, f64); 2]; 3]) -> u8 {
-    let sums = |of: fn((f64, f64)) -> f64| {
-        let [x, y, z] = terms.map(|sides| sides.map(of));
-        let xy = f64x4::new([x[0], x[1], x[0], x[1]]) + f64x4::new([y[0], y[0], y[1], y[1]]);
-        [xy + f64x4::splat(z[0]), xy + f64x4::splat(z[1])]
-    };
-    let (near, far) = (sums(|t| t.0), sums(|t| t.1));
+    let near = children_sums(terms.map(|sides| sides.map(|t| t.0)));
+    let far = children_sums(terms.map(|sides| sides.map(|t| t.1)));
     let (outer, inner) = shell(radius, margin);
     let (outer, inner) = (f64x4::splat(outer), f64x4::splat(inner));
     let within = |k: usize| (near[k].cmp_le(outer) & far[k].cmp_ge(inner)).move_mask() as u8;
     within(0) | within(1) << 4
+}
+
+/// Per child (children 0–3 in the first `f64x4`, 4–7 in the second), the sum of its three
+/// sides' values `[x, y, z]` (each the lower and the upper side's), added x, y, z in turn.
+#[inline(always)]
+fn children_sums([x, y, z]: [[f64; 2]; 3]) -> [f64x4; 2] {
+    let xy = f64x4::new([x[0], x[1], x[0], x[1]]) + f64x4::new([y[0], y[0], y[1], y[1]]);
+    [xy + f64x4::splat(z[0]), xy + f64x4::splat(z[1])]
 }
 
 /// The squared radii of the sphere of `radius` grown and shrunk by `margin` (not below zero).
