@@ -316,3 +316,54 @@ fn a_folder_without_pairs_and_bad_numbers_are_errors() {
         assert!(stderr.contains(flag) && stderr.contains(value), "{stderr}");
     }
 }
+
+#[test]
+fn pictures_go_to_the_folder_asked_for_and_nowhere_else() {
+    require_povray();
+    let dir = tempfile::tempdir().expect("tempdir");
+    let scenes = fixtures();
+    let args = [
+        "bench",
+        "peers",
+        "--scenes",
+        scenes.to_str().expect("utf-8 path"),
+        "--size",
+        "24",
+        "--runs",
+        "1",
+        "--pictures",
+        "out/pictures",
+    ];
+    let out = strahl(dir.path(), &args);
+    let stdout = text(&out.stdout);
+    assert!(out.status.success(), "{stdout}\n{}", text(&out.stderr));
+    check_row(&stdout);
+    let img = image::open(dir.path().join("out/pictures/tiny.png")).expect("picture written");
+    assert_eq!((img.width(), img.height()), (48, 24), "side by side");
+    assert!(
+        !dir.path().join("docs").exists(),
+        "no docs/peers/ beside the folder asked for"
+    );
+
+    // A file where the folder should be: named, and nothing else written.
+    std::fs::write(dir.path().join("taken"), "a file").expect("write file");
+    let mut taken = args;
+    taken[9] = "taken";
+    let out = strahl(dir.path(), &taken);
+    let stderr = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("taken: cannot create the folder"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+#[test]
+fn pictures_and_write_docs_do_not_go_together() {
+    let stderr = fails(&["--write-docs", "perf.md", "--pictures", "pics"], None, 2);
+    assert!(
+        stderr.contains("--pictures") && stderr.contains("--write-docs"),
+        "{stderr}"
+    );
+}

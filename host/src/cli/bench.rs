@@ -157,9 +157,13 @@ pub struct PeersArgs {
     pub depth: u32,
     /// Put the report between the `bench peers` markers of this Markdown file (adding a section
     /// with them if absent); the side-by-side pictures go to peers/ beside it [default: only
-    /// print the tables, pictures to docs/peers/].
+    /// print the tables, pictures to --pictures or docs/peers/].
     #[arg(long, value_name = "FILE")]
     pub write_docs: Option<PathBuf>,
+    /// Put the side-by-side pictures in this folder (created if missing) instead of
+    /// docs/peers/; not with --write-docs, whose report links the pictures beside it.
+    #[arg(long, value_name = "DIR", conflicts_with = "write_docs")]
+    pub pictures: Option<PathBuf>,
 }
 
 impl BenchArgs {
@@ -220,6 +224,7 @@ impl PeersArgs {
             runs: self.runs,
             depth: self.depth,
             write_docs: self.write_docs.clone(),
+            pictures: self.pictures.clone(),
         }
     }
 }

@@ -12,9 +12,9 @@
 //! The medians are printed as a Markdown table with their ratios, the rays each traced (by kind
 //! in a second table), Strahl's work per ray and octree (where its statistics carry them) and
 //! how far the two one-thread images differ (mean absolute difference per channel). A
-//! side-by-side picture per scene goes to `peers/` beside the `--write-docs` file (or
-//! `docs/peers/`), and with `--write-docs FILE` the report replaces the text between the
-//! markers of FILE.
+//! side-by-side picture per scene goes to `peers/` beside the `--write-docs` file (else to the
+//! `--pictures` folder, else `docs/peers/`), and with `--write-docs FILE` the report replaces
+//! the text between the markers of FILE.
 //!
 //! The parts: `scenes` (the pairs), `child` (running and timing a process), `strahl` and
 //! `povray` (each tracer's command line and statistics), `rays` (rays by kind), `measure` (one
@@ -50,7 +50,7 @@ use table::{comparison_table, rays_table, PeerRow};
 
 /// The scene folder used when `--scenes` is not given (relative to the current folder).
 pub const DEFAULT_SCENES: &str = "../shared/spd";
-/// Where the side-by-side pictures go without `--write-docs`.
+/// Where the side-by-side pictures go without `--write-docs` or `--pictures`.
 pub const DEFAULT_IMAGES: &str = "docs/peers";
 /// The pictures' folder's name beside the `--write-docs` file.
 pub const IMAGES_FOLDER: &str = "peers";
@@ -70,15 +70,18 @@ pub struct PeersOptions {
     pub depth: u32,
     /// The Markdown file whose marked section gets the report.
     pub write_docs: Option<PathBuf>,
+    /// The folder of the side-by-side pictures, where the report is not written.
+    pub pictures: Option<PathBuf>,
 }
 
 impl PeersOptions {
-    /// The folder of the side-by-side pictures: `peers/` beside the docs file, or
-    /// [`DEFAULT_IMAGES`].
+    /// The folder of the side-by-side pictures: `peers/` beside the docs file (whose report
+    /// links them there), else the folder asked for, else [`DEFAULT_IMAGES`].
     pub fn images_dir(&self) -> PathBuf {
-        match &self.write_docs {
-            Some(docs) => crate::formats::fs::destination_folder(docs).join(IMAGES_FOLDER),
-            None => PathBuf::from(DEFAULT_IMAGES),
+        match (&self.write_docs, &self.pictures) {
+            (Some(docs), _) => crate::formats::fs::destination_folder(docs).join(IMAGES_FOLDER),
+            (None, Some(dir)) => dir.clone(),
+            (None, None) => PathBuf::from(DEFAULT_IMAGES),
         }
     }
 }
