@@ -348,7 +348,9 @@ fn pictures_go_to_the_folder_asked_for_and_nowhere_else() {
     // A file where the folder should be: named, and nothing else written.
     std::fs::write(dir.path().join("taken"), "a file").expect("write file");
     let mut taken = args;
-    taken[9] = "taken";
+    if let Some(folder) = taken.last_mut() {
+        *folder = "taken";
+    }
     let out = strahl(dir.path(), &taken);
     let stderr = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");

@@ -18,6 +18,8 @@
 //!    the sphere-surface test (lone spheres), the axis test (lone cylinders and cones) or the
 //!    box test (other solids). The solids' tests look at a box one axis at a time, so each
 //!    axis's lower and upper side is looked at once for all the children
+//!    ([`ChildCells::sides`]): a sphere's eight children are then answered together in lanes
+//!    ([`sphere_surface_children`]), another solid's candidates one by one
 //!    ([`ChildCells::children_where`]).
 //!
 //! A triangle is filed in every candidate child it touches and in none it misses by more than
@@ -223,7 +225,7 @@ impl Filing<'_> {
     /// [`Filing::children_touched`] for solid `j`: among the candidates, the children it
     /// touches: a lone sphere where its surface is, a lone cylinder or cone near its axis and
     /// within its reject box, another solid by its reject box. Each test looks at a box one axis
-    /// at a time, so each axis's two sides are computed once ([`ChildCells::children_where`]);
+    /// at a time, so each axis's two sides are computed once ([`ChildCells::sides`]);
     /// the tests check every answer against `solid_touches`, the same tests on one child's box.
     fn solid_children(&self, cells: &ChildCells, j: usize) -> u8 {
         let reach = &self.reach[j];
