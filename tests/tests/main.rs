@@ -5,6 +5,7 @@
 
 mod fuzz_entry;
 
+mod camera_cover;
 mod cluster_sim;
 mod fault_injection;
 mod fuzz_corpus;

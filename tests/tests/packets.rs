@@ -16,7 +16,8 @@ use strahl_core::render::stats::RayCounts;
 use strahl_core::scene::Scene;
 use strahl_formats::load::{load_config_scene, load_scene, Overrides};
 
-fn overrides(width: u32, height: u32) -> Overrides {
+/// One sample per pixel at `width × height` (also the camera cover's tests').
+pub(crate) fn overrides(width: u32, height: u32) -> Overrides {
     Overrides {
         width: Some(width),
         height: Some(height),

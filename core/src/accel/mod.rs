@@ -8,11 +8,14 @@
 //!   grouped tests.
 //! - [`sphere_interiors`]: per transparent lone sphere, the few primitives near it, so a ray
 //!   inside it finds its closest hit by testing those instead of walking the octree.
+//! - [`camera_cover`]: which of the camera's four-pixel packets may meet the octree at all;
+//!   the others' camera rays skip the walk.
 //! - [`prefetch`]: a hint that a value is read soon, for reads the processor cannot foresee.
 //! - [`work`]: the counts of cells entered and primitives tested that the walks keep.
 //!
 //! The layer uses [`crate::math`] and [`crate::geom`].
 
+pub mod camera_cover;
 pub mod leaf_spheres;
 pub mod light_buffer;
 pub mod octree;

@@ -465,9 +465,37 @@ impl Scene {
         leaving: [Option<u32>; LANES],
         scratch: &mut QueryScratch,
     ) -> [Option<PrimitiveHit>; LANES] {
+        self.closest_hits4_walking(rays, t_max, leaving, true, scratch)
+    }
+
+    /// [`Scene::closest_hits4`] for four rays from the camera that enter no cell holding a
+    /// primitive (a clear packet of the camera's cover, [`Scene::camera_cover`]): the same
+    /// answers with no walk, only the large primitives and the unbounded solids tested.
+    pub fn closest_hits4_beside_tree(
+        &self,
+        rays: &[Ray; LANES],
+        scratch: &mut QueryScratch,
+    ) -> [Option<PrimitiveHit>; LANES] {
+        self.closest_hits4_walking(rays, f32::INFINITY, [None; LANES], false, scratch)
+    }
+
+    /// [`Scene::closest_hits4`], walking the tree only if `walk` (the caller knows the rays
+    /// enter no cell holding a primitive otherwise).
+    fn closest_hits4_walking(
+        &self,
+        rays: &[Ray; LANES],
+        t_max: f32,
+        leaving: [Option<u32>; LANES],
+        walk: bool,
+        scratch: &mut QueryScratch,
+    ) -> [Option<PrimitiveHit>; LANES] {
         // Rays that part (mirror rays off spheres, mostly) go one at a time, without the four
-        // rays' set-up for the tests; where spheres are tested in groups, all do.
-        let packet = (!self.group_spheres).then(|| Packet::new(rays)).flatten();
+        // rays' set-up for the tests; where spheres are tested in groups, all do that walk.
+        let packet = if walk && self.group_spheres {
+            None
+        } else {
+            Packet::new(rays)
+        };
         let Some(packet) = packet else {
             return per_lane(|l| self.closest_hit(&rays[l], t_max, scratch));
         };
@@ -476,7 +504,8 @@ impl Scene {
             &mut scratch.work,
             &mut scratch.packet_stack,
         );
-        if self.octree.missed_by4(&packet, t_max) {
+        let nothing_filed = !walk && self.octree.large().is_empty();
+        if nothing_filed || self.octree.missed_by4(&packet, t_max) {
             // No set-up for tests no ray will make.
             return per_lane(|l| self.closest_unbounded(&rays[l], t_max, None, spans, work));
         }
@@ -487,6 +516,7 @@ impl Scene {
             &packet,
             t_max,
             leaving,
+            walk,
             (work, stack),
             |asked, i, closest| {
                 let Some(triangle) = self.triangle_points.get(i as usize) else {

@@ -4,12 +4,13 @@
 //! a stratified pattern fixed by the pixel's coordinates ([`crate::render::sampling::pixel_sample`]),
 //! summed in sample order. Rays are traced four at a time, to the hits each finds alone: four
 //! neighbouring pixels' with one sample per pixel, four samples of a pixel with more. Their first
-//! hits are found together ([`Scene::closest_hits4`]), and so are their next rays while each of
-//! the four has one (`trace4`). Adaptive
-//! multisampling ([`crate::render::adaptive`]) takes two passes: with it, `render_line` traces
-//! only the pixel centres, and [`crate::render::adaptive::refine_line`] later supersamples the
-//! pixels that differ from a neighbour. Every decision depends on the scene and
-//! the pixel alone, so any executor on any machine produces the same pixels.
+//! hits are found together ([`Scene::closest_hits4`]), without a walk of the octree where the
+//! camera's cover says four neighbouring pixels' rays meet none of its cells
+//! ([`Scene::cover`]), and so are their next rays while each of the four has one (`trace4`).
+//! Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
+//! `render_line` traces only the pixel centres, and [`crate::render::adaptive::refine_line`]
+//! later supersamples the pixels that differ from a neighbour. Every decision depends on the
+//! scene and the pixel alone, so any executor on any machine produces the same pixels.
 
 use crate::accel::octree::{per_lane, LANES};
 use crate::math::ray::Ray;
@@ -83,7 +84,8 @@ fn single_samples(
         return;
     };
     let samples = per_lane(|l| sample(scene, x + l as u32, y, 0));
-    let colors = trace4(scene, samples, scratch, counts);
+    let beside_tree = scene.cover().is_some_and(|cover| cover.clear(x, y));
+    let colors = trace4(scene, samples, beside_tree, scratch, counts);
     for (px, color) in four.iter_mut().zip(colors) {
         *px = Pixel::from_color(color);
     }
@@ -121,7 +123,7 @@ pub(crate) fn supersample(
     let mut k = 0;
     while k + LANES as u32 <= n {
         let samples = per_lane(|l| sample(scene, x, y, k + l as u32));
-        for color in trace4(scene, samples, scratch, counts) {
+        for color in trace4(scene, samples, false, scratch, counts) {
             sum += color;
         }
         k += LANES as u32;

@@ -392,16 +392,23 @@ pub fn trace(
 /// one pixel's), each the colour it gives alone. The four rays find their closest hits together
 /// ([`Scene::closest_hits4`]), and so do the next rays of the four ray trees while each has one
 /// (a mirror or refracted ray, mostly); the rest are followed one at a time. Four primary rays
-/// that hit nothing give the background without any tree.
+/// that hit nothing give the background without any tree. With `beside_tree` the caller knows
+/// the primary rays enter no cell that holds a primitive (a clear packet of the camera's
+/// cover): their hits are found without a walk.
 pub(crate) fn trace4(
     scene: &Scene,
     samples: [(Ray, u32); LANES],
+    beside_tree: bool,
     scratch: &mut TraceScratch,
     counts: &mut RayCounts,
 ) -> [Vec3; LANES] {
     let primaries = per_lane(|l| samples[l].0);
-    let no_leaving = [None; LANES];
-    let hits = scene.closest_hits4(&primaries, f32::INFINITY, no_leaving, &mut scratch.query);
+    let query = &mut scratch.query;
+    let hits = if beside_tree {
+        scene.closest_hits4_beside_tree(&primaries, query)
+    } else {
+        scene.closest_hits4(&primaries, f32::INFINITY, [None; LANES], query)
+    };
     counts.work += core::mem::take(&mut scratch.query.work);
     if hits == [None; LANES] {
         // Four background samples (most of some scenes' pixels): what each tree would gather,

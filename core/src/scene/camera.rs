@@ -5,7 +5,13 @@
 //! camera looks along +Y with +X to the right. `angle_x` tilts it (positive looks up), then
 //! `angle_z` turns it about the world Z axis (positive turns left, counter-clockwise seen from
 //! above); both in degrees. Zoom `z` gives a horizontal field of view of `2·atan(1/z)`.
+//!
+//! The frame also runs the other way: [`Projection`] places a point on the image where the
+//! frame's rays meet it, and [`CameraFrame::cover`] makes from it the camera's cover of the
+//! octree (which four-pixel packets' rays may meet it at all).
 
+use crate::accel::camera_cover::{CameraCover, Seen};
+use crate::accel::octree::Octree;
 use crate::math::norm::Norm;
 use crate::math::ray::Ray;
 use glam::Vec3;
@@ -151,6 +157,109 @@ impl CameraFrame {
         let v = (self.height as f32 - 2.0 * y) / w;
         Ray::new(self.position, self.forward + self.right * u + self.up * v)
     }
+
+    /// How this camera places points on its image ([`Projection`]).
+    pub fn projection(&self) -> Projection {
+        let (f, r, u) = (wide(self.forward), wide(self.right), wide(self.up));
+        let det = dot(f, cross(r, u));
+        let over = |v: [f64; 3]| v.map(|c| c / det);
+        Projection {
+            position: wide(self.position),
+            depth: over(cross(r, u)),
+            across: over(cross(u, f)),
+            upward: over(cross(f, r)),
+            width: f64::from(self.width),
+            height: f64::from(self.height),
+        }
+    }
+
+    /// How far, in pixels, a camera ray as [`CameraFrame::ray`] casts it (in `f32`) and as the
+    /// octree's walk widens its interval may stray from the exact projection
+    /// ([`Projection::see`]): the margin of the camera's [`CameraCover`]. In image units
+    /// (`width / 2` pixels) a direction `forward + right·u + up·v` has parts of size at most
+    /// `s = |forward|₁ + 1 + height / width` on the image. Its rounding (three products and
+    /// two sums per component) and the walk's widening (2·γ(3) of `t`) each turn it by less
+    /// than `8 ε·s` radians (ε = 2⁻²⁴), and a turn of `a` radians moves its image point by at
+    /// most `a·s² / |forward|²` image units. Four times their sum is kept, plus one pixel.
+    pub fn cover_margin(&self) -> f64 {
+        let (w, h) = (f64::from(self.width.max(1)), f64::from(self.height));
+        let forward = wide(self.forward);
+        let s = forward.map(f64::abs).iter().sum::<f64>() + 1.0 + h / w;
+        let turn = 16.0 * f64::from(f32::EPSILON / 2.0) * s;
+        1.0 + 4.0 * turn * s * s / dot(forward, forward) * w / 2.0
+    }
+
+    /// Which four-pixel packets of this camera's image may meet `octree` ([`CameraCover`]).
+    pub fn cover(&self, octree: &Octree) -> Option<CameraCover> {
+        let projection = self.projection();
+        CameraCover::new(
+            octree,
+            (self.width, self.height),
+            self.cover_margin(),
+            |p| projection.see(p),
+        )
+    }
+}
+
+/// Where a camera's rays meet points ([`CameraFrame::projection`]), in `f64` from the frame's
+/// `f32` numbers, with no assumption that the frame is orthonormal. The ray through image
+/// point `(u, v)` (in [`CameraFrame::ray`]'s units) has direction `forward + right·u + up·v`,
+/// so `p − position = t·forward + t·u·right + t·v·up`; by Cramer's rule `t`, `t·u` and `t·v`
+/// are dot products of `p − position` with the cross products of the other two vectors over
+/// the frame's determinant, made once.
+#[derive(Clone, Copy, Debug)]
+pub struct Projection {
+    position: [f64; 3],
+    depth: [f64; 3],
+    across: [f64; 3],
+    upward: [f64; 3],
+    width: f64,
+    height: f64,
+}
+
+impl Projection {
+    /// Where `p` lies ([`Seen`]): in front of the camera's plane, the image point whose ray
+    /// [`CameraFrame::ray`] would cast through `p` if it computed exactly; behind or on the
+    /// plane where `t` is below or within its rounding bound.
+    pub fn see(&self, p: Vec3) -> Seen {
+        let q = sub(wide(p), self.position);
+        let t = dot(q, self.depth);
+        // `q`, the vectors made once and the dot are each a few `f64` roundings of the
+        // products' magnitudes: far below this bound.
+        let bound = 64.0 * f64::EPSILON * dot(q.map(f64::abs), self.depth.map(f64::abs));
+        // A NaN (a point the frame cannot place) is near: its cell covers every pixel.
+        if t < -bound {
+            return Seen::Behind;
+        }
+        if t <= bound || t.is_nan() {
+            return Seen::Near;
+        }
+        let (u, v) = (dot(q, self.across) / t, dot(q, self.upward) / t);
+        let x = (u + 1.0) * self.width / 2.0;
+        let y = (self.height - v * self.width) / 2.0;
+        Seen::Front(x, y)
+    }
+}
+
+/// `v` in `f64`, and the vector operations [`CameraFrame::projection`] makes in it.
+fn wide(v: Vec3) -> [f64; 3] {
+    v.to_array().map(f64::from)
+}
+
+fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 #[cfg(test)]

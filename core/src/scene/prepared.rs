@@ -1,6 +1,7 @@
 //! [`Scene`], the prepared form of a [`SceneDesc`]: validated, with smooth vertex normals (the
 //! area-weighted average of the adjacent faces' normals, seed section 3.2.2.1), solids, the
-//! resolved occlusion distance, the derived effects, the octree and the lights' buffers.
+//! resolved occlusion distance, the derived effects, the octree, the lights' buffers and the
+//! camera's cover.
 //! Renderers only ever see a [`Scene`]. It is built in three stages: [`SceneGeometry`] (the
 //! validated geometry), [`IndexedGeometry`] (with its octree) and the scene, so that a caller
 //! with a clock can time the octree's build alone.
@@ -11,6 +12,7 @@ use super::error::SceneError;
 use super::model::{Light, SceneDesc, Shader};
 use super::settings::RenderSettings;
 use super::triangle_shading::TriangleShadings;
+use crate::accel::camera_cover::CameraCover;
 use crate::accel::leaf_spheres::LeafSpheres;
 use crate::accel::light_buffer::{LightBuffer, SIZED_FOR};
 use crate::accel::octree::{Octree, OctreeParams, GROUP};
@@ -80,9 +82,21 @@ pub struct Scene {
     /// The transparent lone spheres whose inside rays test a few primitives instead of walking
     /// the octree ([`Scene::closest_hit_inside`]).
     pub sphere_interiors: SphereInteriors,
+    /// The camera's four-pixel packets whose rays may meet the octree ([`CameraCover`]), with
+    /// the camera frame it was made for: the other packets' camera rays skip the walk. `None`
+    /// where a leaf lies across the camera's plane (every packet may meet it) or the image is
+    /// too large for it.
+    pub camera_cover: Option<(CameraFrame, CameraCover)>,
 }
 
 impl Scene {
+    /// The camera's cover ([`Scene::camera_cover`]) if it was made for the camera the scene
+    /// has now.
+    pub fn cover(&self) -> Option<&CameraCover> {
+        let (frame, cover) = self.camera_cover.as_ref()?;
+        (*frame == self.camera).then_some(cover)
+    }
+
     /// Validates `desc`, computes smooth vertex normals and builds the octree with `params` and
     /// the lights' buffers.
     ///
@@ -203,13 +217,16 @@ impl IndexedGeometry<'_> {
             // 36 bytes a triangle no hit reads (SPD's tetra and mount).
             triangle_normals = Vec::new();
         }
+        let camera = CameraFrame::new(&desc.camera, desc.settings.width, desc.settings.height);
+        let camera_cover = camera.cover(&octree).map(|cover| (camera, cover));
         Scene {
             light_buffers,
             sphere_interiors,
             settings: desc.settings,
             shaders: desc.shaders.clone(),
             lights: desc.lights.clone(),
-            camera: CameraFrame::new(&desc.camera, desc.settings.width, desc.settings.height),
+            camera,
+            camera_cover,
             axis_planes: AxisPlanes::new(&triangle_points),
             triangle_shading,
             triangle_points,

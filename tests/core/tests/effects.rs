@@ -942,7 +942,17 @@ fn adaptive_multisampling_traces_nothing_extra_in_a_flat_image() {
         assert_eq!(adaptive, single, "{name}");
         assert_eq!(ca.primary, u64::from(AW * AH), "{name}");
         assert_eq!(ca.extra_samples, 0, "{name}: {ca:?}");
-        assert_eq!(ca, c1, "{name}: the same rays as one sample per pixel");
+        // The rays, not the walks' work: one sample per pixel skips the walk where the
+        // camera's cover says a packet meets no cell, and the adaptive centres walk alone.
+        let rays = |c: RayCounts| RayCounts {
+            work: Default::default(),
+            ..c
+        };
+        assert_eq!(
+            rays(ca),
+            rays(c1),
+            "{name}: the same rays as one sample per pixel"
+        );
     }
 }
 

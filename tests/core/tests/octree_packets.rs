@@ -37,6 +37,7 @@ fn check(tree: &Octree, tris: &[[Vec3; 3]], rays: &[Ray; LANES]) -> (usize, bool
                 packet,
                 f32::INFINITY,
                 [None; LANES],
+                true,
                 (&mut work, stack),
                 |lanes, i, closest| {
                     for l in lanes_of(lanes) {

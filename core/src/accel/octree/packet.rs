@@ -223,13 +223,15 @@ impl Octree {
     /// ray's hit with `t < closest[l].bound()` to `closest[l]`, as `test(index, bound)` finds it
     /// there. `leaving[l]` is a primitive ray `l` cannot hit, which the walk does not test it
     /// against (the triangle it leaves: its test could only find nothing, at a cost, as `t`
-    /// rounds about 0). The cells entered and the tests made are added to `work`; `stack` is
-    /// the walk's.
+    /// rounds about 0). With `walk` false only the large primitives are tested: the caller
+    /// knows the rays enter no cell that holds a primitive. The cells entered and the tests
+    /// made are added to `work`; `stack` is the walk's.
     pub fn closest_hits4<H: RayHit>(
         &self,
         packet: &Packet,
         t_max: f32,
         leaving: [Option<u32>; LANES],
+        walk: bool,
         (work, stack): (&mut QueryWork, &mut PacketStack),
         mut test: impl FnMut(u32, u32, &mut [Closest<H>; LANES]),
     ) -> [Option<(u32, H)>; LANES] {
@@ -244,6 +246,10 @@ impl Octree {
                 tests += u64::from(lanes.count_ones());
                 test(lanes, i, &mut closest);
             }
+        }
+        if !walk {
+            work.intersection_tests += tests;
+            return per_lane(|l| closest[l].best());
         }
         // A hit on a large primitive already bounds the ray's walk.
         let t_max = per_lane(|l| t_max.min(closest[l].cutoff()));

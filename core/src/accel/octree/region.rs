@@ -1,8 +1,10 @@
-//! Which primitives the tree files near a region: for structures built beside the octree that
-//! must know every primitive a ray could meet inside a box (`accel::sphere_interiors`).
+//! The tree's cells for structures built beside the octree: which primitives the tree files near
+//! a region, for those that must know every primitive a ray could meet inside a box
+//! (`accel::sphere_interiors`), and its occupied cells from the root down, for those that must
+//! know where a ray can meet any (`accel::camera_cover`).
 
 use super::overlap::cell_margin;
-use super::{child_box, Octree, MAX_DEPTH_LIMIT};
+use super::{child_box, Node, Octree, MAX_DEPTH_LIMIT};
 use crate::math::aabb::Aabb;
 use alloc::vec::Vec;
 
@@ -38,6 +40,30 @@ impl Octree {
         found.sort_unstable();
         found.dedup();
         found
+    }
+
+    /// Visits the cells that hold a primitive from the root down, depth first: `visit(cell,
+    /// node)` gets each one's box (the walk's, to the bit) and node, and says whether to go on
+    /// into an interior node's children. Empty leaves are not visited: the walk finds nothing
+    /// in them.
+    pub fn descend(&self, mut visit: impl FnMut(&Aabb, &Node) -> bool) {
+        let Some(&root) = self.nodes.first() else {
+            return;
+        };
+        // Each level pushes at most eight cells and pops one.
+        let mut stack = Vec::with_capacity(8 * MAX_DEPTH_LIMIT as usize + 1);
+        stack.push((root, self.root));
+        while let Some((node, cell)) = stack.pop() {
+            let empty = node.is_leaf() && node.count == 0;
+            if empty || !visit(&cell, &node) || node.is_leaf() {
+                continue;
+            }
+            let mid = cell.center();
+            for c in (0..8).filter(|&c| node.child_occupied(c)) {
+                let child = self.nodes[node.first as usize + c];
+                stack.push((child, child_box(&cell, mid, c)));
+            }
+        }
     }
 
     /// How far the build grows every cell before it files a primitive in it, in world units
