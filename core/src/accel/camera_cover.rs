@@ -120,18 +120,14 @@ impl CameraCover {
     }
 
     /// True if no camera ray through pixels `x .. x + LANES` of line `y` can enter a cell that
-    /// holds a primitive (`x` a multiple of [`LANES`]; pixels beyond the image are not asked).
+    /// holds a primitive (`x` a multiple of [`LANES`]); false for a packet beyond the image.
     #[inline]
     pub fn clear(&self, x: u32, y: u32) -> bool {
+        if x >= self.width || y >= self.height {
+            return false;
+        }
         let k = y as usize * self.per_line + x as usize / LANES;
-        self.bits
-            .get(k / 64)
-            .is_some_and(|w| w >> (k % 64) & 1 == 0)
-    }
-
-    /// The image size the cover was made for.
-    pub fn size(&self) -> (u32, u32) {
-        (self.width, self.height)
+        self.bits[k / 64] >> (k % 64) & 1 == 0
     }
 
     /// What `cell`'s corners say about it (see [`Footprint`]).
