@@ -11,7 +11,7 @@ use strahl_core::render::intersect::{PrimitiveHit, QueryScratch};
 use strahl_core::render::pixel::Pixel;
 use strahl_core::render::render_line;
 use strahl_core::scene::Scene;
-use strahl_formats::load::{load_config_scene, load_scene};
+use strahl_formats::load::{load_config_scene, load_scene, Overrides};
 
 /// Sierpinski tetrahedra of `level` levels (4^level tetrahedra each, SPD's tetra) centred at
 /// `centres`, seen from `from`, with a floor under them if `floor`.
@@ -160,6 +160,52 @@ fn a_camera_inside_the_tree() {
         cleared * 10 > packets && cleared < packets,
         "{cleared} of {packets} packets cleared"
     );
+}
+
+/// With `m × m` samples per pixel (all of them, not adaptively), four samples of a cleared
+/// pixel skip the walk too: the same pixels as without the cover, fewer cells entered; the
+/// last sample of 3 × 3 goes alone.
+#[test]
+fn multisampled_pixels_as_without_the_cover() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("scene.nff");
+    std::fs::write(&path, tetra_scene(4, &[[0.0; 3]], [1.0, -3.2, 2.2], true)).expect("write");
+    for m in [2u32, 3] {
+        let samples = Overrides {
+            samples: Some(m),
+            ..overrides(40, 32)
+        };
+        let mut desc = load_scene(&path, &samples).expect("scene loads").desc;
+        // Every sample of every pixel (not adaptive, whose first pass traces centres alone).
+        desc.settings.aa_threshold = None;
+        let scene = Scene::build(&desc, &OctreeParams::default()).expect("valid scene");
+        let cover = scene.cover().expect("a cover");
+        let cleared = (0..32)
+            .flat_map(|y| (0..40).step_by(LANES).map(move |x| (x, y)))
+            .filter(|&(x, y)| cover.clear(x, y))
+            .count();
+        assert!(cleared > 40, "{m} × {m}: {cleared} packets cleared");
+        let mut without = scene.clone();
+        without.camera_cover = None;
+        let (mut a, mut b) = (vec![Pixel::default(); 40], vec![Pixel::default(); 40]);
+        let (mut walked, mut walked_without) = (0, 0);
+        for y in 0..32 {
+            walked += render_line(&scene, y, &mut a)
+                .expect("line renders")
+                .work
+                .octree_cells;
+            walked_without += render_line(&without, y, &mut b)
+                .expect("line renders")
+                .work
+                .octree_cells;
+            assert_eq!(a, b, "{m} × {m}, line {y}");
+        }
+        // The cleared pixels' samples entered no cell.
+        assert!(
+            walked < walked_without,
+            "{m} × {m}: {walked} cells entered, {walked_without} without the cover"
+        );
+    }
 }
 
 #[test]

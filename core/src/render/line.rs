@@ -5,8 +5,8 @@
 //! summed in sample order. Rays are traced four at a time, to the hits each finds alone: four
 //! neighbouring pixels' with one sample per pixel, four samples of a pixel with more. Their first
 //! hits are found together ([`Scene::closest_hits4`]), without a walk of the octree where the
-//! camera's cover says four neighbouring pixels' rays meet none of its cells
-//! ([`Scene::cover`]), and so are their next rays while each of the four has one (`trace4`).
+//! camera's cover says the pixels' rays meet none of its cells ([`Scene::cover`]), and so are
+//! their next rays while each of the four has one (`trace4`).
 //! Adaptive multisampling ([`crate::render::adaptive`]) takes two passes: with it,
 //! `render_line` traces only the pixel centres, and [`crate::render::adaptive::refine_line`]
 //! later supersamples the pixels that differ from a neighbour. Every decision depends on the
@@ -118,12 +118,16 @@ pub(crate) fn supersample(
     let m = scene.settings.samples.max(1);
     let n = m * m;
     let mut sum = Vec3::ZERO;
-    // Four samples at a time where four are left: their rays walk together, and their colours
-    // are added in sample order, as one at a time.
+    // Four samples at a time where four are left: their rays walk together (not at all where
+    // the camera's cover clears the pixel's packet: every sample lies in the pixel), and their
+    // colours are added in sample order, as one at a time.
+    let beside_tree = scene
+        .cover()
+        .is_some_and(|cover| cover.clear(x - x % LANES as u32, y));
     let mut k = 0;
     while k + LANES as u32 <= n {
         let samples = per_lane(|l| sample(scene, x, y, k + l as u32));
-        for color in trace4(scene, samples, false, scratch, counts) {
+        for color in trace4(scene, samples, beside_tree, scratch, counts) {
             sum += color;
         }
         k += LANES as u32;
